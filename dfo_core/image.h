@@ -1,0 +1,83 @@
+// A minimal owned image: width x height pixels of `channels` interleaved values of type T,
+// row-major. dfo_core stays free of OpenCV; dfo_io converts at the file boundary.
+#ifndef DFO_CORE_IMAGE_H_
+#define DFO_CORE_IMAGE_H_
+
+#include <cmath>
+#include <cstdint>
+#include <vector>
+
+#include "dfo_core/error.h"
+
+namespace dfo {
+
+template <typename T>
+class Image {
+ public:
+  using Scalar = T;
+
+  Image() = default;
+  Image(int width, int height, int channels = 1, T fill = T(0))
+      : width_(width), height_(height), channels_(channels) {
+    DFO_CHECK(width >= 0 && height >= 0 && channels >= 1)
+        << width << "x" << height << "x" << channels;
+    data_.assign(static_cast<size_t>(width) * height * channels, fill);
+  }
+
+  int width() const { return width_; }
+  int height() const { return height_; }
+  int channels() const { return channels_; }
+  bool empty() const { return data_.empty(); }
+  size_t size() const { return data_.size(); }
+  T* data() { return data_.data(); }
+  const T* data() const { return data_.data(); }
+  std::vector<T>& vector() { return data_; }
+  const std::vector<T>& vector() const { return data_; }
+
+  T& operator()(int x, int y, int c = 0) { return data_[Index(x, y, c)]; }
+  const T& operator()(int x, int y, int c = 0) const { return data_[Index(x, y, c)]; }
+  T* Row(int y) { return data_.data() + static_cast<size_t>(y) * width_ * channels_; }
+  const T* Row(int y) const { return data_.data() + static_cast<size_t>(y) * width_ * channels_; }
+
+  bool InBounds(int x, int y) const { return x >= 0 && y >= 0 && x < width_ && y < height_; }
+
+  // Bilinear interpolation of channel c at continuous (x, y) (pixel centres at integers).
+  // The caller keeps (x, y) within [0, width-1] x [0, height-1].
+  template <typename S>
+  S Bilinear(S x, S y, int c = 0) const {
+    const int x0 = static_cast<int>(std::floor(x));
+    const int y0 = static_cast<int>(std::floor(y));
+    const int x1 = x0 + 1 < width_ ? x0 + 1 : x0;
+    const int y1 = y0 + 1 < height_ ? y0 + 1 : y0;
+    const S ax = x - S(x0);
+    const S ay = y - S(y0);
+    const S v00 = S((*this)(x0, y0, c)), v10 = S((*this)(x1, y0, c));
+    const S v01 = S((*this)(x0, y1, c)), v11 = S((*this)(x1, y1, c));
+    return (S(1) - ay) * ((S(1) - ax) * v00 + ax * v10) + ay * ((S(1) - ax) * v01 + ax * v11);
+  }
+
+  // Element-wise conversion to another type.
+  template <typename U>
+  Image<U> Cast() const {
+    Image<U> out(width_, height_, channels_);
+    for (size_t i = 0; i < data_.size(); ++i) out.vector()[i] = static_cast<U>(data_[i]);
+    return out;
+  }
+
+ private:
+  size_t Index(int x, int y, int c) const {
+    return (static_cast<size_t>(y) * width_ + x) * channels_ + c;
+  }
+  int width_ = 0;
+  int height_ = 0;
+  int channels_ = 1;
+  std::vector<T> data_;
+};
+
+using ImageU8 = Image<uint8_t>;
+using ImageU16 = Image<uint16_t>;
+using ImageF = Image<float>;
+
+}  // namespace dfo
+
+#endif  // DFO_CORE_IMAGE_H_
