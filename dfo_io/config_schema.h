@@ -1,0 +1,26 @@
+// dfo's configuration schema: every section and key the programs accept, with defaults, ranges and
+// docs, in one place. configs/default.yaml is this schema's ToYaml() output (a test keeps them
+// equal). Later modules add their sections (tracker, keyframe, window, backend, lcm) here.
+//
+// Sections known now:
+//   dataset  which sequence to read and how to load it (DatasetOptions, dfo_io/dataset.h)
+//   synth    the procedural synthetic sequence (dfo_core/synthetic/options.h)
+//   run      output folder, determinism, threads
+#ifndef DFO_IO_CONFIG_SCHEMA_H_
+#define DFO_IO_CONFIG_SCHEMA_H_
+
+#include "dfo_io/config.h"
+#include "dfo_io/dataset.h"
+
+namespace dfo::io {
+
+// The full schema of dfo's configuration.
+const ConfigSchema& DfoSchema();
+
+// The `dataset` section as DatasetOptions (then checked with DatasetOptions::Check, except that an
+// empty dataset.path is allowed here: the caller decides whether it needs a dataset).
+DatasetOptions DatasetOptionsFromConfig(const Config& config);
+
+}  // namespace dfo::io
+
+#endif  // DFO_IO_CONFIG_SCHEMA_H_

@@ -1,0 +1,297 @@
+#include "dfo_io/dataset.h"
+
+#include <algorithm>
+#include <cmath>
+#include <filesystem>
+#include <limits>
+#include <sstream>
+
+#include "dfo_core/error.h"
+#include "dfo_io/folder_dataset.h"
+#include "dfo_io/image_io.h"
+#include "dfo_io/kitti_dataset.h"
+#include "dfo_io/tum_dataset.h"
+
+namespace dfo::io {
+namespace fs = std::filesystem;
+
+void DatasetOptions::Check() const {
+  const auto fail = [](const std::string& what) { throw ConfigError(what); };
+  if (type != "kitti" && type != "tum" && type != "folder") {
+    fail("dataset.type = '" + type + "' violates one of kitti|tum|folder");
+  }
+  if (path.empty()) fail("dataset.path is empty: set it to the dataset's folder");
+  if (type == "kitti" && sequence.empty()) fail("dataset.sequence is empty (KITTI needs it)");
+  if (first < 0) fail("dataset.first = " + std::to_string(first) + " violates >= 0");
+  if (last < -1) fail("dataset.last = " + std::to_string(last) + " violates >= -1");
+  if (last >= 0 && last < first) {
+    fail("dataset.last = " + std::to_string(last) + " violates >= dataset.first (" +
+         std::to_string(first) + ") or -1");
+  }
+  if (!keep_native && image_width <= 0) {
+    fail("dataset.image_width = " + std::to_string(image_width) + " violates > 0");
+  }
+  if (!keep_native && image_height <= 0) {
+    fail("dataset.image_height = " + std::to_string(image_height) + " violates > 0");
+  }
+  const auto positive = [&](const char* name, double v) {
+    if (!(v > 0) || !std::isfinite(v)) {
+      std::ostringstream msg;
+      msg << "dataset." << name << " = " << v << " violates > 0";
+      fail(msg.str());
+    }
+  };
+  positive("tum_max_depth_diff", tum_max_depth_diff);
+  positive("tum_max_gt_diff", tum_max_gt_diff);
+  positive("tum_max_gt_gap", tum_max_gt_gap);
+  if (tum_gt_mode != "interpolate" && tum_gt_mode != "nearest") {
+    fail("dataset.tum_gt_mode = '" + tum_gt_mode + "' violates one of interpolate|nearest");
+  }
+}
+
+Sequence::Sequence(std::string name, std::vector<FrameInfo> frames, PinholeCamera native_camera,
+                   double depth_scale, DatasetOptions options)
+    : name_(std::move(name)),
+      frames_(std::move(frames)),
+      native_camera_(native_camera),
+      depth_scale_(depth_scale),
+      options_(std::move(options)) {
+  DFO_CHECK(!frames_.empty()) << name_;
+  DFO_CHECK(depth_scale_ > 0) << depth_scale_;
+  native_camera_.Check();
+}
+
+const FrameInfo& Sequence::frame(size_t i) const {
+  DFO_CHECK(i < frames_.size()) << "frame " << i << " of " << frames_.size();
+  return frames_[i];
+}
+
+int Sequence::output_width() const {
+  return options_.keep_native ? native_camera_.width : options_.image_width;
+}
+int Sequence::output_height() const {
+  return options_.keep_native ? native_camera_.height : options_.image_height;
+}
+
+PinholeCamera Sequence::camera() const {
+  if (output_width() == native_camera_.width && output_height() == native_camera_.height) {
+    return native_camera_;
+  }
+  return native_camera_.Resized(output_width(), output_height());
+}
+
+bool Sequence::has_depth() const {
+  return std::any_of(frames_.begin(), frames_.end(),
+                     [](const FrameInfo& f) { return !f.depth_path.empty(); });
+}
+
+bool Sequence::has_ground_truth() const {
+  return std::any_of(frames_.begin(), frames_.end(),
+                     [](const FrameInfo& f) { return f.world_from_cam.has_value(); });
+}
+
+Trajectory Sequence::GroundTruth() const {
+  Trajectory gt;
+  for (const auto& f : frames_) {
+    if (f.world_from_cam) gt.Add(f.timestamp_ns, *f.world_from_cam);
+  }
+  return gt;
+}
+
+std::vector<int64_t> Sequence::Timestamps() const {
+  std::vector<int64_t> stamps;
+  stamps.reserve(frames_.size());
+  for (const auto& f : frames_) stamps.push_back(f.timestamp_ns);
+  return stamps;
+}
+
+std::string Sequence::FramePrefix(size_t i) const {
+  return name_ + ", frame " + std::to_string(i) + " (recording index " +
+         std::to_string(frames_[i].source_index) + "): ";
+}
+
+ImageU8 Sequence::LoadNativeImage(size_t i) const {
+  const FrameInfo& f = frame(i);
+  ImageU8 image;
+  try {
+    image = options_.color ? ReadRgb(f.image_path) : ReadGray(f.image_path);
+  } catch (const InputError& e) {
+    throw InputError(FramePrefix(i) + e.what());
+  }
+  if (image.width() != native_camera_.width || image.height() != native_camera_.height) {
+    throw InputError(FramePrefix(i) + "images of different sizes in one sequence: " +
+                     f.image_path + " is " + std::to_string(image.width()) + "x" +
+                     std::to_string(image.height()) + ", expected " +
+                     std::to_string(native_camera_.width) + "x" +
+                     std::to_string(native_camera_.height) + " (the size of " +
+                     frames_.front().image_path + ")");
+  }
+  return image;
+}
+
+ImageU8 Sequence::LoadImage(size_t i) const {
+  ImageU8 native = LoadNativeImage(i);
+  return Resize(native, output_width(), output_height());
+}
+
+ImageF Sequence::LoadDepth(size_t i) const {
+  const FrameInfo& f = frame(i);
+  if (f.depth_path.empty()) return ImageF();
+  ImageF depth;
+  try {
+    depth = ReadDepthPng(f.depth_path, depth_scale_);
+  } catch (const InputError& e) {
+    throw InputError(FramePrefix(i) + e.what());
+  }
+  if (depth.width() != native_camera_.width || depth.height() != native_camera_.height) {
+    throw InputError(FramePrefix(i) + "depth map " + f.depth_path + " is " +
+                     std::to_string(depth.width()) + "x" + std::to_string(depth.height()) +
+                     ", expected the image size " + std::to_string(native_camera_.width) + "x" +
+                     std::to_string(native_camera_.height));
+  }
+  return ResizeDepth(depth, output_width(), output_height());
+}
+
+LoadedFrame Sequence::Load(size_t i) const {
+  LoadedFrame out;
+  out.index = static_cast<int>(i);
+  out.timestamp_ns = frame(i).timestamp_ns;
+  out.image = LoadImage(i);
+  if (options_.depth) out.depth_m = LoadDepth(i);
+  out.camera = camera();
+  out.world_from_cam = frame(i).world_from_cam;
+  return out;
+}
+
+void Sequence::Validate() const {
+  for (size_t i = 0; i < frames_.size(); ++i) {
+    const FrameInfo& f = frames_[i];
+    int w = 0, h = 0;
+    try {
+      ReadImageSize(f.image_path, &w, &h);
+    } catch (const InputError& e) {
+      throw InputError(FramePrefix(i) + e.what());
+    }
+    if (w != native_camera_.width || h != native_camera_.height) {
+      throw InputError(FramePrefix(i) + "images of different sizes in one sequence: " +
+                       f.image_path + " is " + std::to_string(w) + "x" + std::to_string(h) +
+                       ", expected " + std::to_string(native_camera_.width) + "x" +
+                       std::to_string(native_camera_.height) + " (the size of " +
+                       frames_.front().image_path + ")");
+    }
+    if (!f.depth_path.empty()) {
+      ImageU16 raw;
+      try {
+        raw = ReadU16(f.depth_path);
+      } catch (const InputError& e) {
+        throw InputError(FramePrefix(i) + e.what());
+      }
+      if (raw.width() != w || raw.height() != h) {
+        throw InputError(FramePrefix(i) + "depth map " + f.depth_path + " is " +
+                         std::to_string(raw.width()) + "x" + std::to_string(raw.height()) +
+                         ", expected the image size " + std::to_string(w) + "x" +
+                         std::to_string(h));
+      }
+    }
+  }
+}
+
+Sequence OpenSequence(const DatasetOptions& options) {
+  options.Check();
+  if (options.type == "kitti") return OpenKittiSequence(options);
+  if (options.type == "tum") return OpenTumSequence(options);
+  return OpenFolderSequence(options);
+}
+
+ImageF ResizeDepth(const ImageF& depth, int width, int height) {
+  DFO_CHECK(width > 0 && height > 0) << width << "x" << height;
+  DFO_CHECK(depth.channels() == 1) << depth.channels();
+  if (depth.width() == width && depth.height() == height) return depth;
+  const double sx = static_cast<double>(depth.width()) / width;
+  const double sy = static_cast<double>(depth.height()) / height;
+  const auto valid = [](float d) { return d > 0.0f && std::isfinite(d); };
+  ImageF out(width, height, 1, 0.0f);
+  for (int v = 0; v < height; ++v) {
+    // Output pixel v covers source rows [v * sy, (v + 1) * sy) (pixel-corner coordinates); its
+    // centre is at (v + 0.5) * sy - 0.5 in pixel-centre coordinates, as PinholeCamera::Resized.
+    const double cy = (v + 0.5) * sy - 0.5;
+    const int y0 = std::max(0, static_cast<int>(std::floor(v * sy)));
+    const int y1 = std::min(depth.height() - 1, static_cast<int>(std::ceil((v + 1) * sy)) - 1);
+    const int yc = std::clamp(static_cast<int>(std::lround(cy)), 0, depth.height() - 1);
+    for (int u = 0; u < width; ++u) {
+      const double cx = (u + 0.5) * sx - 0.5;
+      const int xc = std::clamp(static_cast<int>(std::lround(cx)), 0, depth.width() - 1);
+      const float centre = depth(xc, yc);
+      if (valid(centre)) {
+        out(u, v) = centre;
+        continue;
+      }
+      const int x0 = std::max(0, static_cast<int>(std::floor(u * sx)));
+      const int x1 = std::min(depth.width() - 1, static_cast<int>(std::ceil((u + 1) * sx)) - 1);
+      double best = std::numeric_limits<double>::max();
+      float best_depth = 0.0f;
+      for (int y = y0; y <= y1; ++y) {
+        for (int x = x0; x <= x1; ++x) {
+          const float d = depth(x, y);
+          if (!valid(d)) continue;
+          const double dist = (x - cx) * (x - cx) + (y - cy) * (y - cy);
+          // Ties resolved by scan order, so the result is deterministic.
+          if (dist < best) {
+            best = dist;
+            best_depth = d;
+          }
+        }
+      }
+      out(u, v) = best_depth;
+    }
+  }
+  return out;
+}
+
+std::vector<FrameInfo> SelectFrameRange(std::vector<FrameInfo> frames,
+                                        const DatasetOptions& options, const std::string& what) {
+  const int n = static_cast<int>(frames.size());
+  if (n == 0) throw InputError(what + ": no frames found");
+  const int last = options.last < 0 ? n - 1 : options.last;
+  if (options.first >= n || last >= n || last < options.first) {
+    throw InputError(what + ": frame range dataset.first = " + std::to_string(options.first) +
+                     ", dataset.last = " + std::to_string(options.last) +
+                     " is outside the recording's " + std::to_string(n) + " frames (0.." +
+                     std::to_string(n - 1) + ")");
+  }
+  for (int i = 0; i < n; ++i) frames[i].source_index = i;
+  return std::vector<FrameInfo>(frames.begin() + options.first, frames.begin() + last + 1);
+}
+
+void CheckCalibration(const PinholeCamera& camera, const std::string& what) {
+  std::string why;
+  if (!camera.IsValid(&why)) throw InputError(what + ": wrong calibration: " + why);
+  // Pixel centres at integers: the image spans [-0.5, width - 0.5] x [-0.5, height - 0.5].
+  if (camera.cx < -0.5 || camera.cx > camera.width - 0.5 || camera.cy < -0.5 ||
+      camera.cy > camera.height - 0.5) {
+    std::ostringstream msg;
+    msg << what << ": wrong calibration: principal point (" << camera.cx << ", " << camera.cy
+        << ") lies outside the " << camera.width << "x" << camera.height << " image";
+    throw InputError(msg.str());
+  }
+}
+
+std::vector<std::string> ListImageFiles(const std::string& folder) {
+  std::error_code ec;
+  if (!fs::is_directory(folder, ec)) throw InputError("image folder not found: " + folder);
+  std::vector<std::string> files;
+  for (const auto& entry : fs::directory_iterator(folder, ec)) {
+    if (!entry.is_regular_file(ec)) continue;
+    std::string ext = entry.path().extension().string();
+    for (char& c : ext) c = static_cast<char>(std::tolower(static_cast<unsigned char>(c)));
+    if (ext == ".png" || ext == ".jpg" || ext == ".jpeg" || ext == ".ppm" || ext == ".pgm" ||
+        ext == ".bmp" || ext == ".tif" || ext == ".tiff") {
+      files.push_back(entry.path().string());
+    }
+  }
+  if (ec) throw InputError("cannot list image folder " + folder + ": " + ec.message());
+  std::sort(files.begin(), files.end());
+  return files;
+}
+
+}  // namespace dfo::io

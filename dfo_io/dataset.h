@@ -1,0 +1,166 @@
+// Image sequences from disk: KITTI odometry, TUM RGB-D and plain image folders, behind one
+// Sequence type.
+//
+// A Sequence is the list of frames of one recording (timestamp, image file, optional depth file,
+// optional ground-truth pose) plus the native camera. Frames are loaded on demand, resized to the
+// requested resolution (default: the networks' 416 x 128) with the intrinsics rescaled to match
+// (PinholeCamera::Resized). Depth maps are resized without ever mixing invalid (0) pixels into
+// valid ones (ResizeDepth).
+//
+// Layouts (see also the per-format headers):
+//  - kitti:  <path>/sequences/<seq>/{image_0|image_2}/NNNNNN.png, calib.txt (rows "P0:".."P3:",
+//            12 numbers each), times.txt (seconds), optional depth_0/ (16-bit PNG, metres = v/256),
+//            optional <path>/poses/<seq>.txt (ground truth; KITTI sequences 11-21 have none).
+//            `path` may also name the sequence folder itself (the one holding calib.txt).
+//  - tum:    <path>/rgb.txt, depth.txt, groundtruth.txt ('#' comments), rgb/ depth/ images,
+//            optional camera.yaml; depth scale 5000 (see tum_dataset.h).
+//  - folder: <path>/camera.yaml plus image files sorted by name (see folder_dataset.h).
+//
+// Every error about the data is a dfo::InputError naming the file and the line or frame index.
+#ifndef DFO_IO_DATASET_H_
+#define DFO_IO_DATASET_H_
+
+#include <cstdint>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "dfo_core/camera.h"
+#include "dfo_core/image.h"
+#include "dfo_core/lie.h"
+#include "dfo_core/trajectory.h"
+
+namespace dfo::io {
+
+// What to open and how to load it. Mirrors the `dataset` section of the configuration
+// (DatasetOptionsFromConfig in dfo_io/config_schema.h).
+struct DatasetOptions {
+  std::string type = "kitti";  // kitti | tum | folder
+  std::string path;            // dataset root (see the layouts above); must be set
+  std::string sequence = "00";  // KITTI sequence name (folder under sequences/); unused otherwise
+  int first = 0;                // first frame used (index in the full recording), >= 0
+  int last = -1;                // last frame used, inclusive; -1 = the recording's last frame
+  int image_width = 416;        // width of loaded images in pixels, > 0 (unless keep_native)
+  int image_height = 128;       // height of loaded images in pixels, > 0 (unless keep_native)
+  bool keep_native = false;     // true: load images at their native size, ignore width/height
+  bool color = false;           // true: RGB images (KITTI image_2 when present); false: gray
+  bool depth = false;           // true: load ground-truth depth maps with the images, if any
+
+  // TUM RGB-D association (seconds), see tum_dataset.h.
+  double tum_max_depth_diff = 0.02;       // rgb <-> depth, as TUM's associate.py (0.02 s)
+  std::string tum_gt_mode = "interpolate";  // interpolate | nearest
+  double tum_max_gt_diff = 0.02;  // nearest mode (and fallback): max |t_gt - t_frame|
+  double tum_max_gt_gap = 0.1;    // interpolate mode: max spacing of the two bracketing gt poses
+
+  // Throws dfo::ConfigError naming the field, its value and the rule ("dataset.first = -2
+  // violates >= 0").
+  void Check() const;
+};
+
+// One frame of a sequence, as listed by the dataset (nothing loaded).
+struct FrameInfo {
+  int64_t timestamp_ns = 0;
+  std::string image_path;
+  std::string depth_path;  // "" when this frame has no depth map
+  int source_index = 0;    // index in the full recording (before first/last), for messages
+  std::optional<SE3d> world_from_cam;  // ground-truth pose of this camera, when known
+};
+
+// A frame loaded at the output resolution.
+struct LoadedFrame {
+  int index = 0;  // index within the sequence
+  int64_t timestamp_ns = 0;
+  ImageU8 image;    // 1 channel (gray) or 3 channels (RGB), output resolution
+  ImageF depth_m;   // depth in metres at output resolution, 0 = invalid; empty when not loaded
+  PinholeCamera camera;  // intrinsics matching `image`
+  std::optional<SE3d> world_from_cam;  // ground truth, when known
+};
+
+// A recording: its frames, camera and loading options. Build it with OpenSequence (or the
+// per-format Open*Sequence functions); the constructor is for readers and tests.
+class Sequence {
+ public:
+  // `native_camera` describes the images on disk; `depth_scale` converts 16-bit depth PNG values
+  // to metres (metres = value / depth_scale). `frames` must be non-empty.
+  Sequence(std::string name, std::vector<FrameInfo> frames, PinholeCamera native_camera,
+           double depth_scale, DatasetOptions options);
+
+  // Human-readable name used in messages, e.g. "KITTI 06" or the folder path.
+  const std::string& name() const { return name_; }
+  size_t size() const { return frames_.size(); }
+  const FrameInfo& frame(size_t i) const;
+  const std::vector<FrameInfo>& frames() const { return frames_; }
+  int64_t timestamp_ns(size_t i) const { return frame(i).timestamp_ns; }
+
+  // Intrinsics of the images on disk.
+  const PinholeCamera& native_camera() const { return native_camera_; }
+  // Intrinsics of loaded images (native camera resized to the output resolution).
+  PinholeCamera camera() const;
+  // Output resolution (native size when keep_native).
+  int output_width() const;
+  int output_height() const;
+
+  double depth_scale() const { return depth_scale_; }
+  // Whether any frame has a depth map / a ground-truth pose.
+  bool has_depth() const;
+  bool has_ground_truth() const;
+  // Ground-truth poses of the frames that have one, stamped with the frames' timestamps.
+  Trajectory GroundTruth() const;
+  // All timestamps, in frame order.
+  std::vector<int64_t> Timestamps() const;
+
+  // Image of frame i at the output resolution (gray or RGB by options().color). Throws
+  // InputError naming the frame and file when the image is missing, corrupt or of a size other
+  // than the native one ("images of different sizes in one sequence").
+  ImageU8 LoadImage(size_t i) const;
+  // Image at native resolution (same checks).
+  ImageU8 LoadNativeImage(size_t i) const;
+  // Depth of frame i in metres at the output resolution (0 = invalid); empty image when the
+  // frame has no depth map. Throws InputError as LoadImage.
+  ImageF LoadDepth(size_t i) const;
+  // Image, ground truth and (when options().depth) depth of frame i at the output resolution.
+  LoadedFrame Load(size_t i) const;
+
+  // Reads every image (and depth map) once: all must exist, decode and have the native size.
+  // Throws InputError on the first offending frame.
+  void Validate() const;
+
+  const DatasetOptions& options() const { return options_; }
+
+ private:
+  std::string FramePrefix(size_t i) const;
+
+  std::string name_;
+  std::vector<FrameInfo> frames_;
+  PinholeCamera native_camera_;
+  double depth_scale_ = 1.0;
+  DatasetOptions options_;
+};
+
+// Opens the sequence described by `options` (checked first): dispatches on options.type.
+Sequence OpenSequence(const DatasetOptions& options);
+
+// Resizes a depth map (metres, 0 = invalid) without averaging: each output pixel takes the source
+// pixel under its centre; when that one is invalid, the valid source pixel nearest to the centre
+// within the output pixel's footprint; 0 when the footprint has none. Never mixes depths of
+// different surfaces, never spreads invalid pixels over valid ones.
+ImageF ResizeDepth(const ImageF& depth, int width, int height);
+
+// Helpers shared by the readers (exposed for tests and other readers).
+
+// Keeps frames [options.first, options.last] (last = -1: to the end); InputError when the range
+// is empty or outside the recording. `what` names the recording in the message.
+std::vector<FrameInfo> SelectFrameRange(std::vector<FrameInfo> frames,
+                                        const DatasetOptions& options, const std::string& what);
+
+// Throws InputError naming `what` when the principal point lies outside the image or a focal
+// length is not positive ("wrong calibration").
+void CheckCalibration(const PinholeCamera& camera, const std::string& what);
+
+// Image files (png, jpg, jpeg, ppm, pgm, bmp, tif, tiff; case-insensitive) in `folder`, sorted by
+// name. InputError when the folder does not exist.
+std::vector<std::string> ListImageFiles(const std::string& folder);
+
+}  // namespace dfo::io
+
+#endif  // DFO_IO_DATASET_H_
