@@ -1,0 +1,312 @@
+#include "dfo_core/metrics.h"
+
+#include <algorithm>
+#include <cmath>
+#include <limits>
+#include <sstream>
+#include <string>
+
+#include "dfo_core/error.h"
+
+namespace dfo {
+namespace {
+
+constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
+constexpr double kRadToDeg = 180.0 / M_PI;
+
+void CheckSameSize(const Trajectory& ground_truth, const Trajectory& estimate, const char* what) {
+  if (ground_truth.size() != estimate.size()) {
+    std::ostringstream msg;
+    msg << what << ": ground truth has " << ground_truth.size() << " poses, estimate "
+        << estimate.size() << "; associate the trajectories first (same size, pose i with pose i)";
+    throw InputError(msg.str());
+  }
+}
+
+// Cumulative path length of the positions: dist[0] = 0, dist[i] = dist[i-1] + |p_i - p_{i-1}|
+// (KITTI devkit trajectoryDistances, evo geometry.accumulated_distances).
+std::vector<double> PathDistances(const Trajectory& trajectory) {
+  std::vector<double> dist(trajectory.size(), 0.0);
+  for (size_t i = 1; i < trajectory.size(); ++i) {
+    dist[i] = dist[i - 1] + (trajectory[i].world_from_cam.translation() -
+                             trajectory[i - 1].world_from_cam.translation())
+                                .norm();
+  }
+  return dist;
+}
+
+double Mean(const std::vector<double>& v) {
+  if (v.empty()) return kNaN;
+  double sum = 0.0;
+  for (double x : v) sum += x;
+  return sum / static_cast<double>(v.size());
+}
+
+// Population standard deviation (numpy's np.std, ddof = 0).
+double PopulationStd(const std::vector<double>& v) {
+  if (v.empty()) return kNaN;
+  const double mean = Mean(v);
+  double sum = 0.0;
+  for (double x : v) sum += (x - mean) * (x - mean);
+  return std::sqrt(sum / static_cast<double>(v.size()));
+}
+
+}  // namespace
+
+ErrorStatistics ComputeStatistics(const std::vector<double>& errors) {
+  ErrorStatistics s;
+  s.count = errors.size();
+  if (errors.empty()) {
+    s.rmse = s.mean = s.median = s.std = s.min = s.max = s.sse = kNaN;
+    return s;
+  }
+  double sse = 0.0;
+  for (double e : errors) sse += e * e;
+  s.sse = sse;
+  s.rmse = std::sqrt(sse / static_cast<double>(errors.size()));
+  s.mean = Mean(errors);
+  s.std = PopulationStd(errors);
+  std::vector<double> sorted = errors;
+  std::sort(sorted.begin(), sorted.end());
+  s.min = sorted.front();
+  s.max = sorted.back();
+  const size_t n = sorted.size();
+  s.median = (n % 2 == 1) ? sorted[n / 2] : 0.5 * (sorted[n / 2 - 1] + sorted[n / 2]);
+  return s;
+}
+
+AteResult ComputeAte(const Trajectory& ground_truth, const Trajectory& estimate) {
+  CheckSameSize(ground_truth, estimate, "ATE");
+  AteResult result;
+  result.errors.reserve(estimate.size());
+  // evo APE translation_part: E = positions_est - positions_ref, error = |E_i|.
+  for (size_t i = 0; i < estimate.size(); ++i) {
+    result.errors.push_back((estimate[i].world_from_cam.translation() -
+                             ground_truth[i].world_from_cam.translation())
+                                .norm());
+  }
+  result.stats = ComputeStatistics(result.errors);
+  return result;
+}
+
+void RpeOptions::Check() const {
+  if (!(delta > 0.0) || !std::isfinite(delta)) {
+    throw ConfigError("rpe.delta = " + std::to_string(delta) + " violates > 0");
+  }
+  if (delta_unit == DeltaUnit::kFrames && delta != std::floor(delta)) {
+    throw ConfigError("rpe.delta = " + std::to_string(delta) +
+                      " violates 'a whole number of frames' (delta_unit = frames)");
+  }
+  if (!(rel_delta_tol >= 0.0)) {
+    throw ConfigError("rpe.rel_delta_tol = " + std::to_string(rel_delta_tol) + " violates >= 0");
+  }
+}
+
+namespace {
+
+// evo filters.filter_pairs_by_index.
+std::vector<std::pair<size_t, size_t>> PairsByIndex(size_t n, size_t delta, bool all_pairs) {
+  std::vector<std::pair<size_t, size_t>> pairs;
+  if (all_pairs) {
+    for (size_t i = 0; i + delta < n; ++i) pairs.emplace_back(i, i + delta);
+  } else {
+    for (size_t i = 0; i + delta < n; i += delta) pairs.emplace_back(i, i + delta);
+  }
+  return pairs;
+}
+
+// evo filters.filter_pairs_by_path.
+std::vector<std::pair<size_t, size_t>> PairsByPath(const Trajectory& trajectory, double delta,
+                                                   double tol, bool all_pairs) {
+  std::vector<std::pair<size_t, size_t>> pairs;
+  const size_t n = trajectory.size();
+  if (n == 0) return pairs;
+  if (all_pairs) {
+    // evo runs a bounded binary search on the (monotone) path length from i to j; on a monotone
+    // sequence that finds the j nearest to the target, the lower one on ties, as here.
+    const std::vector<double> dist = PathDistances(trajectory);
+    for (size_t i = 0; i < n; ++i) {
+      const double target = dist[i] + delta;
+      const auto it = std::lower_bound(dist.begin() + i, dist.end(), target);
+      size_t best = n;  // none
+      double best_residual = std::numeric_limits<double>::infinity();
+      const size_t hi = static_cast<size_t>(it - dist.begin());
+      for (size_t j : {hi == 0 ? n : hi - 1, hi}) {
+        if (j >= n || j < i) continue;
+        const double residual = std::abs(dist[j] - target);
+        if (residual < best_residual) {
+          best_residual = residual;
+          best = j;
+        }
+      }
+      if (best < n) {
+        const double length = dist[best] - dist[i];
+        if (length >= delta - tol && length <= delta + tol) pairs.emplace_back(i, best);
+      }
+    }
+    return pairs;
+  }
+  // Consecutive mode: the path length accumulates from pose 0 and an id is taken (and the
+  // accumulator reset) whenever it reaches delta; the first id is therefore not 0.
+  std::vector<size_t> ids;
+  double current = 0.0;
+  for (size_t i = 0; i < n; ++i) {
+    if (i > 0) {
+      current += (trajectory[i].world_from_cam.translation() -
+                  trajectory[i - 1].world_from_cam.translation())
+                     .norm();
+    }
+    if (current >= delta) {
+      ids.push_back(i);
+      current = 0.0;
+    }
+  }
+  for (size_t k = 1; k < ids.size(); ++k) pairs.emplace_back(ids[k - 1], ids[k]);
+  return pairs;
+}
+
+}  // namespace
+
+RpeResult ComputeRpe(const Trajectory& ground_truth, const Trajectory& estimate,
+                     const RpeOptions& options) {
+  options.Check();
+  CheckSameSize(ground_truth, estimate, "RPE");
+  const Trajectory& pair_source = options.pairs_from_reference ? ground_truth : estimate;
+  RpeResult result;
+  if (options.delta_unit == DeltaUnit::kFrames) {
+    result.pairs = PairsByIndex(pair_source.size(), static_cast<size_t>(options.delta),
+                                options.all_pairs);
+  } else {
+    result.pairs = PairsByPath(pair_source, options.delta, options.delta * options.rel_delta_tol,
+                               options.all_pairs);
+  }
+  result.translation_errors.reserve(result.pairs.size());
+  result.rotation_errors_deg.reserve(result.pairs.size());
+  for (const auto& [i, j] : result.pairs) {
+    // evo rpe_base: Q_rel = Q_i^-1 Q_j, P_rel = P_i^-1 P_j, E = Q_rel^-1 P_rel.
+    const SE3d q_rel =
+        ground_truth[i].world_from_cam.Inverse() * ground_truth[j].world_from_cam;
+    const SE3d p_rel = estimate[i].world_from_cam.Inverse() * estimate[j].world_from_cam;
+    const SE3d e = q_rel.Inverse() * p_rel;
+    result.translation_errors.push_back(e.translation().norm());
+    result.rotation_errors_deg.push_back(e.so3().Angle() * kRadToDeg);
+  }
+  result.translation = ComputeStatistics(result.translation_errors);
+  result.rotation_deg = ComputeStatistics(result.rotation_errors_deg);
+  return result;
+}
+
+void KittiOdometryOptions::Check() const {
+  if (lengths_m.empty()) throw ConfigError("kitti.lengths_m is empty, expected >= 1 length");
+  for (size_t i = 0; i < lengths_m.size(); ++i) {
+    if (!(lengths_m[i] > 0.0)) {
+      throw ConfigError("kitti.lengths_m[" + std::to_string(i) + "] = " +
+                        std::to_string(lengths_m[i]) + " violates > 0");
+    }
+  }
+  if (step_frames <= 0) {
+    throw ConfigError("kitti.step_frames = " + std::to_string(step_frames) + " violates > 0");
+  }
+}
+
+KittiOdometryResult ComputeKittiOdometryErrors(const Trajectory& ground_truth,
+                                               const Trajectory& estimate,
+                                               const KittiOdometryOptions& options) {
+  options.Check();
+  CheckSameSize(ground_truth, estimate, "KITTI odometry errors");
+  const std::vector<double> dist = PathDistances(ground_truth);
+  const size_t n = ground_truth.size();
+
+  std::vector<double> t_sum(options.lengths_m.size(), 0.0), r_sum(options.lengths_m.size(), 0.0);
+  std::vector<size_t> counts(options.lengths_m.size(), 0);
+  double t_total = 0.0, r_total = 0.0;
+  size_t total = 0;
+  const size_t step = static_cast<size_t>(options.step_frames);
+  for (size_t first = 0; first < n; first += step) {
+    for (size_t l = 0; l < options.lengths_m.size(); ++l) {
+      const double len = options.lengths_m[l];
+      // lastFrameFromSegmentLength: first frame whose distance exceeds dist[first] + len.
+      const auto it = std::upper_bound(dist.begin() + first, dist.end(), dist[first] + len);
+      if (it == dist.end()) continue;
+      const size_t last = static_cast<size_t>(it - dist.begin());
+      const SE3d delta_gt = ground_truth[first].world_from_cam.Inverse() *
+                            ground_truth[last].world_from_cam;
+      const SE3d delta_est =
+          estimate[first].world_from_cam.Inverse() * estimate[last].world_from_cam;
+      const SE3d error = delta_est.Inverse() * delta_gt;
+      // rotationError: acos of the clamped (trace - 1) / 2, as the devkit.
+      const Eigen::Matrix3d R = error.rotationMatrix();
+      const double d = 0.5 * (R.trace() - 1.0);
+      const double r_err = std::acos(std::max(std::min(d, 1.0), -1.0));
+      const double t_err = error.translation().norm();
+      t_sum[l] += t_err / len;
+      r_sum[l] += r_err / len;
+      ++counts[l];
+      t_total += t_err / len;
+      r_total += r_err / len;
+      ++total;
+    }
+  }
+  KittiOdometryResult result;
+  result.num_segments = total;
+  // The devkit reports t_err * 100 (%) and r_err in deg/m; deg/100 m is the usual table unit.
+  result.t_rel_pct = total > 0 ? 100.0 * t_total / static_cast<double>(total) : kNaN;
+  result.r_rel_deg_per_100m =
+      total > 0 ? 100.0 * kRadToDeg * r_total / static_cast<double>(total) : kNaN;
+  for (size_t l = 0; l < options.lengths_m.size(); ++l) {
+    KittiLengthErrors e;
+    e.length_m = options.lengths_m[l];
+    e.num_segments = counts[l];
+    const double c = static_cast<double>(counts[l]);
+    e.t_rel_pct = counts[l] > 0 ? 100.0 * t_sum[l] / c : kNaN;
+    e.r_rel_deg_per_100m = counts[l] > 0 ? 100.0 * kRadToDeg * r_sum[l] / c : kNaN;
+    result.per_length.push_back(e);
+  }
+  return result;
+}
+
+void SnippetAteOptions::Check() const {
+  if (snippet_length < 2) {
+    throw ConfigError("snippet_ate.snippet_length = " + std::to_string(snippet_length) +
+                      " violates >= 2");
+  }
+  if (stride < 1) {
+    throw ConfigError("snippet_ate.stride = " + std::to_string(stride) + " violates >= 1");
+  }
+}
+
+SnippetAteResult ComputeSnippetAte(const Trajectory& ground_truth, const Trajectory& estimate,
+                                   const SnippetAteOptions& options) {
+  options.Check();
+  CheckSameSize(ground_truth, estimate, "snippet ATE");
+  SnippetAteResult result;
+  const size_t len = static_cast<size_t>(options.snippet_length);
+  const size_t n = ground_truth.size();
+  for (size_t start = 0; start + len <= n; start += static_cast<size_t>(options.stride)) {
+    const SE3d gt_first_inv = ground_truth[start].world_from_cam.Inverse();
+    const SE3d est_first_inv = estimate[start].world_from_cam.Inverse();
+    std::vector<Eigen::Vector3d> gt(len), est(len);
+    for (size_t k = 0; k < len; ++k) {
+      gt[k] = (gt_first_inv * ground_truth[start + k].world_from_cam).translation();
+      est[k] = (est_first_inv * estimate[start + k].world_from_cam).translation();
+    }
+    // compute_ate: offset so the first positions agree (both are 0 here up to round-off).
+    const Eigen::Vector3d offset = gt[0] - est[0];
+    double num = 0.0, den = 0.0;
+    for (size_t k = 0; k < len; ++k) {
+      est[k] += offset;
+      num += gt[k].dot(est[k]);
+      den += est[k].squaredNorm();
+    }
+    const double scale = den > 0.0 ? num / den : 0.0;
+    double sum_sq = 0.0;
+    for (size_t k = 0; k < len; ++k) sum_sq += (scale * est[k] - gt[k]).squaredNorm();
+    // sqrt(sum of squares) / N, SfMLearner's definition.
+    result.errors.push_back(std::sqrt(sum_sq) / static_cast<double>(len));
+  }
+  result.mean = Mean(result.errors);
+  result.std = PopulationStd(result.errors);
+  return result;
+}
+
+}  // namespace dfo

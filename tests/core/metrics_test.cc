@@ -1,0 +1,226 @@
+#include "dfo_core/metrics.h"
+
+#include <cmath>
+#include <random>
+
+#include <gtest/gtest.h>
+
+#include "dfo_core/alignment.h"
+#include "dfo_core/error.h"
+
+namespace dfo {
+namespace {
+
+constexpr double kDegToRad = M_PI / 180.0;
+
+// Straight drive along +z (the KITTI camera's forward axis), `step` metres per frame.
+Trajectory StraightLine(int n, double step) {
+  Trajectory t;
+  for (int i = 0; i < n; ++i) {
+    t.Add(static_cast<int64_t>(i) * 100000000LL, SE3d(SO3d(), Eigen::Vector3d(0, 0, step * i)));
+  }
+  return t;
+}
+
+// A smooth curving trajectory with changing orientation (fixed seed).
+Trajectory Curvy(int n, unsigned seed) {
+  std::mt19937 rng(seed);
+  std::normal_distribution<double> noise(0.0, 0.05);
+  Trajectory t;
+  SE3d pose;
+  for (int i = 0; i < n; ++i) {
+    t.Add(static_cast<int64_t>(i) * 100000000LL, pose);
+    Vector6d xi;
+    xi << noise(rng), noise(rng), 1.0 + noise(rng), noise(rng), 0.05 + noise(rng), noise(rng);
+    pose = pose * SE3d::Exp(xi);
+  }
+  return t;
+}
+
+TEST(Statistics, MatchNumpyDefinitions) {
+  const ErrorStatistics s = ComputeStatistics({4.0, 1.0, 3.0, 2.0});
+  EXPECT_EQ(s.count, 4u);
+  EXPECT_DOUBLE_EQ(s.rmse, std::sqrt(7.5));
+  EXPECT_DOUBLE_EQ(s.mean, 2.5);
+  EXPECT_DOUBLE_EQ(s.median, 2.5);  // mean of the two middle values
+  EXPECT_DOUBLE_EQ(s.std, std::sqrt(1.25));  // population std
+  EXPECT_DOUBLE_EQ(s.min, 1.0);
+  EXPECT_DOUBLE_EQ(s.max, 4.0);
+  EXPECT_DOUBLE_EQ(s.sse, 30.0);
+  EXPECT_DOUBLE_EQ(ComputeStatistics({3.0, 1.0, 2.0}).median, 2.0);
+  const ErrorStatistics empty = ComputeStatistics({});
+  EXPECT_EQ(empty.count, 0u);
+  EXPECT_TRUE(std::isnan(empty.rmse));
+  EXPECT_TRUE(std::isnan(empty.median));
+}
+
+TEST(Ate, IdentityIsZeroAndOffsetIsItsLength) {
+  const Trajectory gt = Curvy(30, 1);
+  EXPECT_EQ(ComputeAte(gt, gt).stats.max, 0.0);
+  Trajectory est = gt;
+  for (auto& p : est.poses()) p.world_from_cam.translation() += Eigen::Vector3d(0.3, 0.4, 0.0);
+  const AteResult ate = ComputeAte(gt, est);
+  ASSERT_EQ(ate.errors.size(), 30u);
+  EXPECT_NEAR(ate.stats.rmse, 0.5, 1e-12);
+  EXPECT_NEAR(ate.stats.min, 0.5, 1e-12);
+  EXPECT_THROW(ComputeAte(gt, Curvy(29, 1)), InputError);
+}
+
+TEST(Rpe, KnownPerStepErrorForFrameDelta) {
+  // gt moves 1 m per frame; the estimate 1.1 m and turns 1 degree per frame about the
+  // direction of travel. E = Q_rel^-1 P_rel: translation error 0.1 per frame of delta, rotation
+  // 1 degree per frame of delta (the extra translation is along the rotation axis).
+  const int n = 21;
+  const Trajectory gt = StraightLine(n, 1.0);
+  Trajectory est;
+  for (int i = 0; i < n; ++i) {
+    est.Add(gt[i].timestamp_ns, SE3d(SO3d::Exp(Eigen::Vector3d(0, 0, i * kDegToRad)),
+                                     Eigen::Vector3d(0, 0, 1.1 * i)));
+  }
+  RpeResult rpe = ComputeRpe(gt, est);
+  ASSERT_EQ(rpe.pairs.size(), 20u);
+  EXPECT_NEAR(rpe.translation.rmse, 0.1, 1e-12);
+  EXPECT_NEAR(rpe.translation.max, 0.1, 1e-12);
+  EXPECT_NEAR(rpe.rotation_deg.rmse, 1.0, 1e-9);
+
+  RpeOptions options;
+  options.delta = 4;  // consecutive pairs (0,4), (4,8), ..., (16,20)
+  rpe = ComputeRpe(gt, est, options);
+  ASSERT_EQ(rpe.pairs.size(), 5u);
+  EXPECT_EQ(rpe.pairs[1], std::make_pair(size_t{4}, size_t{8}));
+  EXPECT_NEAR(rpe.translation.mean, 0.4, 1e-12);
+  EXPECT_NEAR(rpe.rotation_deg.mean, 4.0, 1e-9);
+
+  options.all_pairs = true;  // (i, i + 4) for every i
+  rpe = ComputeRpe(gt, est, options);
+  EXPECT_EQ(rpe.pairs.size(), 17u);
+  EXPECT_NEAR(rpe.translation.median, 0.4, 1e-12);
+}
+
+TEST(Rpe, MetreDeltaFollowsEvoPathFilter) {
+  const Trajectory gt = StraightLine(20, 1.0);
+  RpeOptions options;
+  options.delta = 3.0;
+  options.delta_unit = DeltaUnit::kMeters;
+  // evo's consecutive path filter takes ids 3, 6, 9, ... (not 0).
+  const RpeResult rpe = ComputeRpe(gt, gt, options);
+  ASSERT_EQ(rpe.pairs.size(), 5u);
+  EXPECT_EQ(rpe.pairs[0], std::make_pair(size_t{3}, size_t{6}));
+  EXPECT_EQ(rpe.pairs[4], std::make_pair(size_t{15}, size_t{18}));
+  EXPECT_EQ(rpe.translation.max, 0.0);
+
+  options.all_pairs = true;  // (i, i + 3) for every i with 3 m left
+  const RpeResult all = ComputeRpe(gt, gt, options);
+  ASSERT_EQ(all.pairs.size(), 17u);
+  EXPECT_EQ(all.pairs[0], std::make_pair(size_t{0}, size_t{3}));
+}
+
+TEST(Rpe, TooShortGivesNaNAndBadOptionsThrow) {
+  const Trajectory gt = StraightLine(3, 1.0);
+  RpeOptions options;
+  options.delta = 5;
+  const RpeResult rpe = ComputeRpe(gt, gt, options);
+  EXPECT_TRUE(rpe.pairs.empty());
+  EXPECT_TRUE(std::isnan(rpe.translation.rmse));
+  options.delta = 1.5;  // frames must be whole
+  EXPECT_THROW(ComputeRpe(gt, gt, options), ConfigError);
+  options.delta = 0;
+  EXPECT_THROW(ComputeRpe(gt, gt, options), ConfigError);
+}
+
+TEST(KittiOdometry, ConstantScaleErrorGivesTenPercent) {
+  // est = 1.1 x gt without alignment: every segment's translation error is 10% of the segment's
+  // true length. The devkit divides by the nominal length L while the segment runs to the first
+  // frame beyond L, i.e. L + step: hence 10 (1 + step / L) %, within 0.002 for step = 0.02 m.
+  const double step = 0.02;
+  const Trajectory gt = StraightLine(42000, step);  // 840 m
+  Trajectory est = gt;
+  for (auto& p : est.poses()) p.world_from_cam.translation() *= 1.1;
+  const KittiOdometryResult r = ComputeKittiOdometryErrors(gt, est);
+  EXPECT_GT(r.num_segments, 1000u);
+  EXPECT_NEAR(r.t_rel_pct, 10.0, 0.003);
+  EXPECT_GE(r.t_rel_pct, 10.0 - 1e-9);
+  EXPECT_NEAR(r.r_rel_deg_per_100m, 0.0, 1e-6);
+  ASSERT_EQ(r.per_length.size(), 8u);
+  EXPECT_EQ(r.per_length[7].length_m, 800.0);
+  EXPECT_GT(r.per_length[7].num_segments, 0u);
+  EXPECT_NEAR(r.per_length[7].t_rel_pct, 10.0, 0.001);
+  // Perfect estimate: zero.
+  const KittiOdometryResult zero = ComputeKittiOdometryErrors(gt, gt);
+  EXPECT_NEAR(zero.t_rel_pct, 0.0, 1e-9);
+}
+
+TEST(KittiOdometry, ConstantHeadingDriftGivesKnownRotationError) {
+  // The estimate's orientation turns by theta per frame about the forward axis while its
+  // positions are exact: r_err = k theta / L with k = L / step + 1 frames per segment, so
+  // r_rel = theta / step (1 + step / L) rad/m. theta chosen for 1 deg / 100 m.
+  const double step = 0.05;
+  const double theta = step * kDegToRad / 100.0;
+  const Trajectory gt = StraightLine(17000, step);  // 850 m
+  Trajectory est;
+  for (size_t i = 0; i < gt.size(); ++i) {
+    est.Add(gt[i].timestamp_ns, SE3d(SO3d::Exp(Eigen::Vector3d(0, 0, theta * i)),
+                                     gt[i].world_from_cam.translation()));
+  }
+  const KittiOdometryResult r = ComputeKittiOdometryErrors(gt, est);
+  EXPECT_NEAR(r.r_rel_deg_per_100m, 1.0, 0.001);
+}
+
+TEST(KittiOdometry, ShortTrajectoryHasNoSegment) {
+  const Trajectory gt = StraightLine(50, 1.2);  // 60 m, like the shared KITTI extract
+  const KittiOdometryResult r = ComputeKittiOdometryErrors(gt, gt);
+  EXPECT_EQ(r.num_segments, 0u);
+  EXPECT_TRUE(std::isnan(r.t_rel_pct));
+  EXPECT_TRUE(std::isnan(r.r_rel_deg_per_100m));
+  KittiOdometryOptions options;
+  options.step_frames = 0;
+  EXPECT_THROW(ComputeKittiOdometryErrors(gt, gt, options), ConfigError);
+}
+
+TEST(SnippetAte, ScaledAndMovedTrajectoryScoresZero) {
+  const Trajectory gt = Curvy(40, 3);
+  SimilarityTransform s;
+  s.scale = 0.37;
+  s.rotation = SO3d::Exp(Eigen::Vector3d(0.2, 1.0, -0.4)).Matrix();
+  s.translation = Eigen::Vector3d(3, 2, 1);
+  const Trajectory est = TransformTrajectory(gt, s);
+  const SnippetAteResult r = ComputeSnippetAte(gt, est);
+  ASSERT_EQ(r.errors.size(), 36u);  // stride 1, 5 frames
+  EXPECT_LT(r.mean, 1e-12);
+  EXPECT_LT(r.std, 1e-12);
+}
+
+TEST(SnippetAte, KnownSnippetValueWithTheDivideByNQuirk) {
+  // One snippet: gt at z = 0..4, the estimate's last position off by 1 m sideways.
+  Trajectory gt = StraightLine(5, 1.0);
+  Trajectory est = gt;
+  est[4].world_from_cam.translation().x() = 1.0;
+  // s = sum(gt . est) / sum(est . est) = 30 / 31; error = sqrt(sum |s est - gt|^2) / 5.
+  const double s = 30.0 / 31.0;
+  double sum_sq = 0.0;
+  for (int k = 0; k < 5; ++k) {
+    const Eigen::Vector3d e(k == 4 ? s : 0.0, 0.0, (s - 1.0) * k);
+    sum_sq += e.squaredNorm();
+  }
+  const SnippetAteResult r = ComputeSnippetAte(gt, est);
+  ASSERT_EQ(r.errors.size(), 1u);
+  EXPECT_NEAR(r.errors[0], std::sqrt(sum_sq) / 5.0, 1e-12);
+  EXPECT_NEAR(r.std, 0.0, 1e-15);
+  // Too short: no snippet, NaN.
+  const SnippetAteResult none = ComputeSnippetAte(StraightLine(4, 1.0), StraightLine(4, 1.0));
+  EXPECT_TRUE(none.errors.empty());
+  EXPECT_TRUE(std::isnan(none.mean));
+}
+
+TEST(SnippetAte, StrideAndLengthOptions) {
+  const Trajectory gt = Curvy(23, 4);
+  SnippetAteOptions options;
+  options.snippet_length = 3;
+  options.stride = 5;  // starts 0, 5, 10, 15, 20
+  EXPECT_EQ(ComputeSnippetAte(gt, gt, options).errors.size(), 5u);
+  options.snippet_length = 1;
+  EXPECT_THROW(ComputeSnippetAte(gt, gt, options), ConfigError);
+}
+
+}  // namespace
+}  // namespace dfo
