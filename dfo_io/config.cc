@@ -36,13 +36,38 @@ std::string FormatDouble(double v, bool force_point = true) {
   if (std::isnan(v)) return ".nan";
   if (std::isinf(v)) return v > 0 ? ".inf" : "-.inf";
   char buf[64];
-  for (int precision = 1; precision <= 17; ++precision) {
+  bool found = false;
+  const double magnitude = std::abs(v);
+  if (magnitude == 0.0 || (magnitude >= 1e-4 && magnitude < 1e15)) {
+    // Plain decimals ("80", "0.02") when few enough digits read back exactly.
+    for (int decimals = 0; decimals <= 17 && !found; ++decimals) {
+      std::snprintf(buf, sizeof(buf), "%.*f", decimals, v);
+      found = std::strtod(buf, nullptr) == v;
+    }
+  }
+  for (int precision = 1; precision <= 17 && !found; ++precision) {
     std::snprintf(buf, sizeof(buf), "%.*g", precision, v);
-    if (std::strtod(buf, nullptr) == v) break;
+    found = std::strtod(buf, nullptr) == v;
   }
   std::string s = buf;
-  if (force_point && s.find_first_of(".eE") == std::string::npos) s += ".0";
+  if (force_point && s.find_first_of(".eEn") == std::string::npos) s += ".0";
   return s;
+}
+
+// Splits a comment into lines of at most `width` characters (at spaces).
+std::vector<std::string> WrapWords(const std::string& text, size_t width) {
+  std::vector<std::string> lines;
+  std::istringstream words(text);
+  std::string word, line;
+  while (words >> word) {
+    if (!line.empty() && line.size() + 1 + word.size() > width) {
+      lines.push_back(line);
+      line.clear();
+    }
+    line += (line.empty() ? "" : " ") + word;
+  }
+  if (!line.empty() || lines.empty()) lines.push_back(line);
+  return lines;
 }
 
 std::string QuoteString(const std::string& s) {
@@ -523,10 +548,11 @@ std::string Config::ToYaml() const {
       if (!any) out << "\n";
       any = true;
       const Entry& entry = values_.at(key.path);
-      out << "  # " << key.doc;
+      std::string comment = key.doc;
       const std::string rule = key.RuleText();
-      if (!rule.empty()) out << " [" << rule << "]";
-      out << "\n  " << key.name << ": " << FormatConfigValue(entry.value);
+      if (!rule.empty()) comment += " [" + rule + "]";
+      for (const std::string& line : WrapWords(comment, 94)) out << "  # " << line << "\n";
+      out << "  " << key.name << ": " << FormatConfigValue(entry.value);
       if (entry.source != "default") out << "  # from " << entry.source;
       out << "\n";
     }
@@ -648,17 +674,22 @@ std::string FormatConfigValue(const ConfigValue& value) {
 }
 
 size_t EditDistance(const std::string& a, const std::string& b) {
-  std::vector<size_t> prev(b.size() + 1), cur(b.size() + 1);
-  for (size_t j = 0; j <= b.size(); ++j) prev[j] = j;
-  for (size_t i = 1; i <= a.size(); ++i) {
-    cur[0] = i;
-    for (size_t j = 1; j <= b.size(); ++j) {
-      const size_t substitution = prev[j - 1] + (a[i - 1] == b[j - 1] ? 0 : 1);
-      cur[j] = std::min({prev[j] + 1, cur[j - 1] + 1, substitution});
+  // Optimal string alignment (Damerau-Levenshtein without repeated edits of a substring): a swap
+  // of two neighbouring letters, the commonest typo, costs 1.
+  const size_t n = a.size(), m = b.size();
+  std::vector<std::vector<size_t>> d(n + 1, std::vector<size_t>(m + 1, 0));
+  for (size_t i = 0; i <= n; ++i) d[i][0] = i;
+  for (size_t j = 0; j <= m; ++j) d[0][j] = j;
+  for (size_t i = 1; i <= n; ++i) {
+    for (size_t j = 1; j <= m; ++j) {
+      const size_t cost = a[i - 1] == b[j - 1] ? 0 : 1;
+      d[i][j] = std::min({d[i - 1][j] + 1, d[i][j - 1] + 1, d[i - 1][j - 1] + cost});
+      if (i > 1 && j > 1 && a[i - 1] == b[j - 2] && a[i - 2] == b[j - 1]) {
+        d[i][j] = std::min(d[i][j], d[i - 2][j - 2] + 1);
+      }
     }
-    std::swap(prev, cur);
   }
-  return prev[b.size()];
+  return d[n][m];
 }
 
 std::string ClosestMatch(const std::string& word, const std::vector<std::string>& candidates) {

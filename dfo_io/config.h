@@ -188,7 +188,8 @@ Config LoadConfigFromString(const std::string& yaml_text, const std::string& nam
 // Formats a value as YAML text (flow style for lists, double-quoted strings, round-trip doubles).
 std::string FormatConfigValue(const ConfigValue& value);
 
-// Levenshtein distance between two strings (insertions, deletions, substitutions).
+// Edit distance between two strings: insertions, deletions, substitutions and swaps of two
+// neighbouring characters each cost 1 (optimal string alignment distance).
 size_t EditDistance(const std::string& a, const std::string& b);
 // The candidate closest to `word` by edit distance when close enough to be a plausible typo
 // (distance <= max(2, |word| / 3)), else "".

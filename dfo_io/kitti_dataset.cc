@@ -106,15 +106,14 @@ std::vector<int64_t> ReadKittiTimes(const std::string& path) {
     std::string token, extra;
     if (!(tokens >> token)) continue;
     const std::string where = path + ":" + std::to_string(line_number);
-    double seconds;
-    if (!ParseNumber(token, &seconds) || (tokens >> extra)) {
+    int64_t ns = 0;
+    if (!ParseSecondsToNs(token, &ns) || (tokens >> extra)) {
       throw InputError(where + ": expected one time in seconds, found '" + line + "'");
     }
-    const int64_t ns = SecondsToNs(seconds);
     if (!stamps.empty() && ns <= stamps.back()) {
       throw InputError(where + ": timestamps going backwards: " + token +
-                       " s is not after the previous line's " +
-                       std::to_string(NsToSeconds(stamps.back())) + " s");
+                       " s is not after the previous line's " + FormatNsAsSeconds(stamps.back()) +
+                       " s");
     }
     stamps.push_back(ns);
   }

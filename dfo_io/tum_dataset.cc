@@ -1,7 +1,6 @@
 #include "dfo_io/tum_dataset.h"
 
 #include <algorithm>
-#include <cerrno>
 #include <cmath>
 #include <cstdlib>
 #include <filesystem>
@@ -46,17 +45,17 @@ std::vector<TumListEntry> ReadTumFileList(const std::string& path) {
     if (!(tokens >> stamp >> name) || (tokens >> extra)) {
       throw InputError(where + ": expected 'timestamp filename', found '" + line + "'");
     }
-    errno = 0;
-    char* end = nullptr;
-    const double seconds = std::strtod(stamp.c_str(), &end);
-    if (errno == ERANGE || end != stamp.c_str() + stamp.size() || !std::isfinite(seconds)) {
+    // Exact decimal parsing: epoch stamps like 1341841278.8427 must match groundtruth.txt's to
+    // the nanosecond (a double only resolves ~0.2 us there).
+    int64_t ns = 0;
+    if (!ParseSecondsToNs(stamp, &ns)) {
       throw InputError(where + ": non-numeric timestamp '" + stamp + "'");
     }
-    TumListEntry entry{SecondsToNs(seconds), name, line_number};
+    TumListEntry entry{ns, name, line_number};
     if (!entries.empty() && entry.timestamp_ns <= entries.back().timestamp_ns) {
       throw InputError(where + ": timestamps going backwards: " + stamp +
                        " is not after line " + std::to_string(entries.back().line) + "'s " +
-                       std::to_string(NsToSeconds(entries.back().timestamp_ns)));
+                       FormatNsAsSeconds(entries.back().timestamp_ns));
     }
     entries.push_back(std::move(entry));
   }
