@@ -1,0 +1,481 @@
+// dfo_eval: trajectory and depth evaluation from the command line.
+//
+//   dfo_eval traj --gt FILE --est FILE [options]   ATE, RPE, KITTI t_rel/r_rel, snippet ATE
+//   dfo_eval depth --gt DIR --pred DIR [options]   AbsRel, SqRel, RMSE, RMSE log, delta < 1.25^k
+//
+// Figures follow evo (ATE/RPE), the KITTI devkit (t_rel, r_rel), SfMLearner (snippet ATE) and
+// Monodepth2 (depth); see dfo_core/metrics.h and dfo_core/depth_metrics.h. Errors print one line
+// on stderr and exit with status 1 (2 for command-line mistakes).
+#include <algorithm>
+#include <cctype>
+#include <cerrno>
+#include <cmath>
+#include <cstdio>
+#include <cstdlib>
+#include <filesystem>
+#include <iostream>
+#include <map>
+#include <set>
+#include <string>
+#include <vector>
+
+#include "dfo_core/alignment.h"
+#include "dfo_core/depth_metrics.h"
+#include "dfo_core/error.h"
+#include "dfo_core/metrics.h"
+#include "dfo_io/image_io.h"
+#include "dfo_io/json.h"
+#include "dfo_io/plot.h"
+#include "dfo_io/trajectory_io.h"
+
+namespace dfo {
+namespace {
+
+// A command-line mistake: printed with a hint to --help, exit status 2.
+class UsageError : public Error {
+ public:
+  using Error::Error;
+};
+
+constexpr const char* kMainHelp =
+    "usage: dfo_eval <command> [options]\n"
+    "\n"
+    "commands:\n"
+    "  traj    evaluate an estimated trajectory against ground truth (ATE, RPE, KITTI, snippet)\n"
+    "  depth   evaluate predicted depth maps against ground truth (AbsRel, RMSE, delta, ...)\n"
+    "\n"
+    "`dfo_eval <command> --help` lists the options of a command.\n";
+
+constexpr const char* kTrajHelp =
+    "usage: dfo_eval traj --gt FILE --est FILE [options]\n"
+    "\n"
+    "Aligns the estimate onto the ground truth (Umeyama) and prints ATE (evo APE, translation),\n"
+    "RPE (evo RPE), KITTI t_rel / r_rel (devkit, 100..800 m segments; needs a path over 100 m)\n"
+    "and 5-frame snippet ATE (SfMLearner). All metrics use the aligned estimate.\n"
+    "\n"
+    "options:\n"
+    "  --gt FILE              ground-truth trajectory (camera-to-world)\n"
+    "  --est FILE             estimated trajectory (camera-to-world)\n"
+    "  --format F             kitti | tum | auto (default auto: 12 numbers per line = kitti,\n"
+    "                         8 = tum). KITTI files are paired line by line (equal counts\n"
+    "                         required); TUM files are associated by nearest timestamp.\n"
+    "  --align A              none | se3 | sim3 (default sim3: monocular scale is arbitrary)\n"
+    "  --delta N              RPE delta (default 1)\n"
+    "  --delta-unit U         frames | m (default frames; m = travelled path length, as evo)\n"
+    "  --all-pairs            RPE over all pairs (i, i + delta) instead of consecutive pairs\n"
+    "  --max-diff SECONDS     TUM association: largest time difference (default 0.01, as evo)\n"
+    "  --json                 print one JSON object on stdout instead of text\n"
+    "  --plot FILE.png        write a top-view plot coloured by ATE\n"
+    "  --help                 this text\n";
+
+constexpr const char* kDepthHelp =
+    "usage: dfo_eval depth --gt DIR --pred DIR [options]\n"
+    "\n"
+    "Pairs the 16-bit PNG depth maps of the two folders by file name (every ground-truth file\n"
+    "needs a prediction of the same size) and prints the Monodepth2 / SfMLearner errors averaged\n"
+    "over images. Metres = PNG value / scale; 0 = no depth.\n"
+    "\n"
+    "options:\n"
+    "  --gt DIR               ground-truth depth PNGs\n"
+    "  --pred DIR             predicted depth PNGs, same file names\n"
+    "  --gt-scale S           ground-truth PNG units per metre (default 256; TUM uses 5000)\n"
+    "  --pred-scale S         prediction PNG units per metre (default 256)\n"
+    "  --min-depth M          ground truth counts when > M metres (default 0.001)\n"
+    "  --max-depth M          ... and < M metres; predictions clamped to [min, max] (default 80)\n"
+    "  --median-scaling       scale each prediction by median(gt) / median(pred) first\n"
+    "  --json                 print one JSON object on stdout instead of text\n"
+    "  --help                 this text\n";
+
+// Parsed "--key value" and "--flag" options of one command.
+class Options {
+ public:
+  Options(const std::string& command, int argc, char** argv,
+          const std::set<std::string>& with_value, const std::set<std::string>& flags)
+      : command_(command) {
+    for (int i = 0; i < argc; ++i) {
+      const std::string arg = argv[i];
+      if (flags.count(arg) != 0) {
+        values_[arg] = "";
+      } else if (with_value.count(arg) != 0) {
+        if (i + 1 >= argc) throw UsageError("option " + arg + " needs a value");
+        const std::string value = argv[++i];
+        if (value.rfind("--", 0) == 0 && value.size() > 2 && !std::isdigit(value[2])) {
+          throw UsageError("option " + arg + " needs a value, found option " + value);
+        }
+        values_[arg] = value;
+      } else if (arg.rfind("-", 0) == 0) {
+        throw UsageError("unknown option '" + arg + "'");
+      } else {
+        throw UsageError("unexpected argument '" + arg + "'");
+      }
+    }
+  }
+
+  bool Has(const std::string& key) const { return values_.count(key) != 0; }
+
+  std::string Get(const std::string& key, const std::string& fallback) const {
+    const auto it = values_.find(key);
+    return it == values_.end() ? fallback : it->second;
+  }
+
+  std::string Required(const std::string& key) const {
+    if (!Has(key)) throw UsageError("option " + key + " is required");
+    return values_.at(key);
+  }
+
+  double Number(const std::string& key, double fallback) const {
+    if (!Has(key)) return fallback;
+    const std::string& text = values_.at(key);
+    errno = 0;
+    char* end = nullptr;
+    const double v = std::strtod(text.c_str(), &end);
+    if (end == text.c_str() || *end != '\0' || errno != 0 || !std::isfinite(v)) {
+      throw UsageError("option " + key + " = '" + text + "' is not a number");
+    }
+    return v;
+  }
+
+ private:
+  std::string command_;
+  std::map<std::string, std::string> values_;
+};
+
+bool WantsHelp(int argc, char** argv) {
+  for (int i = 0; i < argc; ++i) {
+    if (std::string(argv[i]) == "--help" || std::string(argv[i]) == "-h") return true;
+  }
+  return false;
+}
+
+// "kitti" when the first data line has 12 numbers, "tum" when 8.
+io::TrajectoryFormat DetectFormat(const std::string& path) {
+  std::FILE* f = std::fopen(path.c_str(), "r");
+  if (f == nullptr) throw InputError("trajectory file not found: " + path);
+  char buf[4096];
+  int line = 0;
+  while (std::fgets(buf, sizeof(buf), f) != nullptr) {
+    ++line;
+    std::string s(buf);
+    const size_t first = s.find_first_not_of(" \t\r\n");
+    if (first == std::string::npos || s[first] == '#') continue;
+    std::fclose(f);
+    size_t count = 0;
+    bool in_token = false;
+    for (const char c : s) {
+      const bool space = c == ' ' || c == '\t' || c == '\r' || c == '\n' || c == ',';
+      if (!space && !in_token) ++count;
+      in_token = !space;
+    }
+    if (count == 12) return io::TrajectoryFormat::kKitti;
+    if (count == 8) return io::TrajectoryFormat::kTum;
+    throw InputError(path + ":" + std::to_string(line) + ": cannot tell the format from a line " +
+                     "with " + std::to_string(count) +
+                     " values, expected 12 (kitti) or 8 (tum); give --format");
+  }
+  std::fclose(f);
+  throw InputError("trajectory file " + path + " has no pose line");
+}
+
+std::string Fixed(double v, int decimals = 6) {
+  if (!std::isfinite(v)) return "n/a";
+  char buf[64];
+  std::snprintf(buf, sizeof(buf), "%.*f", decimals, v);
+  return buf;
+}
+
+int RunTraj(int argc, char** argv) {
+  if (WantsHelp(argc, argv)) {
+    std::cout << kTrajHelp;
+    return 0;
+  }
+  const Options opt("traj", argc, argv,
+                    {"--gt", "--est", "--format", "--align", "--delta", "--delta-unit",
+                     "--max-diff", "--plot"},
+                    {"--json", "--all-pairs"});
+  const std::string gt_path = opt.Required("--gt");
+  const std::string est_path = opt.Required("--est");
+  const std::string format_name = opt.Get("--format", "auto");
+  io::TrajectoryFormat format;
+  if (format_name == "auto") {
+    format = DetectFormat(gt_path);
+  } else {
+    try {
+      format = io::ParseTrajectoryFormat(format_name);
+    } catch (const InputError& e) {
+      throw UsageError(std::string("--format: ") + e.what());
+    }
+  }
+  TrajectoryAlignmentOptions align_options;
+  try {
+    align_options.type = ParseAlignmentType(opt.Get("--align", "sim3"));
+  } catch (const InputError& e) {
+    throw UsageError(std::string("--align: ") + e.what());
+  }
+  RpeOptions rpe_options;
+  rpe_options.delta = opt.Number("--delta", 1.0);
+  const std::string delta_unit = opt.Get("--delta-unit", "frames");
+  if (delta_unit == "frames") {
+    rpe_options.delta_unit = DeltaUnit::kFrames;
+  } else if (delta_unit == "m") {
+    rpe_options.delta_unit = DeltaUnit::kMeters;
+  } else {
+    throw UsageError("--delta-unit '" + delta_unit + "' is unknown, expected frames or m");
+  }
+  rpe_options.all_pairs = opt.Has("--all-pairs");
+  try {
+    rpe_options.Check();
+  } catch (const ConfigError& e) {
+    throw UsageError(std::string("--delta: ") + e.what());
+  }
+  const double max_diff_s = opt.Number("--max-diff", 0.01);
+  if (max_diff_s < 0.0) throw UsageError("--max-diff must be >= 0 seconds");
+  const bool json = opt.Has("--json");
+
+  const Trajectory gt_raw = io::ReadTrajectory(gt_path, format);
+  const Trajectory est_raw = io::ReadTrajectory(est_path, format);
+  if (gt_raw.empty()) throw InputError("ground-truth trajectory " + gt_path + " has no pose");
+  if (est_raw.empty()) throw InputError("estimated trajectory " + est_path + " has no pose");
+
+  Trajectory gt, est;
+  std::string pairing;
+  if (format == io::TrajectoryFormat::kKitti) {
+    if (gt_raw.size() != est_raw.size()) {
+      throw InputError("KITTI trajectories are paired line by line but " + gt_path + " has " +
+                       std::to_string(gt_raw.size()) + " poses and " + est_path + " has " +
+                       std::to_string(est_raw.size()) + "; expected equal counts");
+    }
+    gt = gt_raw;
+    est = est_raw;
+    pairing = "paired by line";
+  } else {
+    const auto pairs = AssociateByTimestamp(gt_raw, est_raw, SecondsToNs(max_diff_s));
+    if (pairs.empty()) {
+      throw InputError("no matching timestamps between " + gt_path + " and " + est_path +
+                       " within " + Fixed(max_diff_s, 4) + " s (--max-diff)");
+    }
+    ApplyAssociation(pairs, gt_raw, est_raw, &gt, &est);
+    pairing = "associated by timestamp within " + Fixed(max_diff_s, 4) + " s, " +
+              std::to_string(pairs.size()) + " of " +
+              std::to_string(std::min(gt_raw.size(), est_raw.size())) + " possible";
+  }
+
+  const TrajectoryAlignment alignment = AlignTrajectory(est, gt, align_options);
+  const Trajectory& aligned = alignment.aligned_estimate;
+  const AteResult ate = ComputeAte(gt, aligned);
+  const RpeResult rpe = ComputeRpe(gt, aligned, rpe_options);
+  const KittiOdometryResult kitti = ComputeKittiOdometryErrors(gt, aligned);
+  const SnippetAteResult snippet = ComputeSnippetAte(gt, aligned);
+
+  const std::string align_name = AlignmentTypeName(align_options.type);
+  if (opt.Has("--plot")) {
+    io::TrajectoryPlotOptions plot;
+    plot.title = "dfo_eval: " + std::filesystem::path(est_path).filename().string() + " vs " +
+                 std::filesystem::path(gt_path).filename().string();
+    plot.text_lines.push_back("ATE rmse " + Fixed(ate.stats.rmse, 4) + " m, mean " +
+                              Fixed(ate.stats.mean, 4) + " m, max " + Fixed(ate.stats.max, 4) +
+                              " m   (" + std::to_string(gt.size()) + " poses, " + align_name +
+                              " alignment, scale " + Fixed(alignment.transform.scale, 4) + ")");
+    std::string line2 = "RPE (" + Fixed(rpe_options.delta, 0) + " " + delta_unit + ") rmse " +
+                        Fixed(rpe.translation.rmse, 4) + " m, " +
+                        Fixed(rpe.rotation_deg.rmse, 4) + " deg";
+    if (kitti.num_segments > 0) {
+      line2 += "   KITTI t_rel " + Fixed(kitti.t_rel_pct, 2) + " %, r_rel " +
+               Fixed(kitti.r_rel_deg_per_100m, 3) + " deg/100m";
+    }
+    plot.text_lines.push_back(line2);
+    io::WriteTrajectoryPlot(opt.Get("--plot", ""), gt, aligned, ate.errors, plot);
+  }
+
+  if (json) {
+    io::JsonValue out = io::JsonValue::Object();
+    out.Set("num_poses", static_cast<int64_t>(gt.size()));
+    out.Set("num_gt_poses", static_cast<int64_t>(gt_raw.size()));
+    out.Set("num_est_poses", static_cast<int64_t>(est_raw.size()));
+    out.Set("format", io::TrajectoryFormatName(format));
+    out.Set("alignment", align_name);
+    out.Set("scale", alignment.transform.scale);
+    out.Set("ate_rmse", ate.stats.rmse);
+    out.Set("ate_mean", ate.stats.mean);
+    out.Set("ate_median", ate.stats.median);
+    out.Set("ate_std", ate.stats.std);
+    out.Set("ate_min", ate.stats.min);
+    out.Set("ate_max", ate.stats.max);
+    out.Set("rpe_delta", rpe_options.delta);
+    out.Set("rpe_delta_unit", delta_unit);
+    out.Set("rpe_num_pairs", static_cast<int64_t>(rpe.pairs.size()));
+    out.Set("rpe_trans_rmse", rpe.translation.rmse);
+    out.Set("rpe_trans_mean", rpe.translation.mean);
+    out.Set("rpe_rot_rmse_deg", rpe.rotation_deg.rmse);
+    out.Set("rpe_rot_mean_deg", rpe.rotation_deg.mean);
+    out.Set("kitti_num_segments", static_cast<int64_t>(kitti.num_segments));
+    out.Set("kitti_t_rel_pct", kitti.t_rel_pct);
+    out.Set("kitti_r_rel_deg_per_100m", kitti.r_rel_deg_per_100m);
+    out.Set("snippet_num", static_cast<int64_t>(snippet.errors.size()));
+    out.Set("snippet_ate_mean", snippet.mean);
+    out.Set("snippet_ate_std", snippet.std);
+    std::cout << out.Dump() << "\n";
+    return 0;
+  }
+
+  std::cout << "ground truth: " << gt_path << " (" << gt_raw.size() << " poses)\n"
+            << "estimate:     " << est_path << " (" << est_raw.size() << " poses)\n"
+            << "poses:        " << gt.size() << " (" << io::TrajectoryFormatName(format) << ", "
+            << pairing << ")\n"
+            << "alignment:    " << align_name << " (Umeyama), scale "
+            << Fixed(alignment.transform.scale) << "\n"
+            << "ATE [m]       rmse " << Fixed(ate.stats.rmse) << "  mean " << Fixed(ate.stats.mean)
+            << "  median " << Fixed(ate.stats.median) << "  std " << Fixed(ate.stats.std)
+            << "  min " << Fixed(ate.stats.min) << "  max " << Fixed(ate.stats.max) << "\n";
+  std::cout << "RPE           delta " << Fixed(rpe_options.delta, rpe_options.delta_unit ==
+                                                                    DeltaUnit::kFrames
+                                                                ? 0
+                                                                : 3)
+            << " " << delta_unit << (rpe_options.all_pairs ? ", all pairs" : ", consecutive pairs")
+            << ", " << rpe.pairs.size() << " pairs\n";
+  if (rpe.pairs.empty()) {
+    std::cout << "              not computed: no pose pair at this delta\n";
+  } else {
+    std::cout << "  trans [m]   rmse " << Fixed(rpe.translation.rmse) << "  mean "
+              << Fixed(rpe.translation.mean) << "  median " << Fixed(rpe.translation.median)
+              << "  max " << Fixed(rpe.translation.max) << "\n"
+              << "  rot [deg]   rmse " << Fixed(rpe.rotation_deg.rmse) << "  mean "
+              << Fixed(rpe.rotation_deg.mean) << "  median " << Fixed(rpe.rotation_deg.median)
+              << "  max " << Fixed(rpe.rotation_deg.max) << "\n";
+  }
+  if (kitti.num_segments > 0) {
+    std::cout << "KITTI         t_rel " << Fixed(kitti.t_rel_pct, 4) << " %  r_rel "
+              << Fixed(kitti.r_rel_deg_per_100m, 4) << " deg/100m  (" << kitti.num_segments
+              << " segments of 100..800 m)\n";
+  } else {
+    std::cout << "KITTI         not computed: ground-truth path " << Fixed(gt.PathLength(), 1)
+              << " m has no 100 m segment\n";
+  }
+  if (!snippet.errors.empty()) {
+    std::cout << "snippet ATE   mean " << Fixed(snippet.mean) << "  std " << Fixed(snippet.std)
+              << "  (" << snippet.errors.size() << " 5-frame snippets, SfMLearner)\n";
+  } else {
+    std::cout << "snippet ATE   not computed: fewer than 5 poses\n";
+  }
+  if (opt.Has("--plot")) std::cout << "plot:         " << opt.Get("--plot", "") << "\n";
+  return 0;
+}
+
+int RunDepth(int argc, char** argv) {
+  if (WantsHelp(argc, argv)) {
+    std::cout << kDepthHelp;
+    return 0;
+  }
+  const Options opt("depth", argc, argv,
+                    {"--gt", "--pred", "--gt-scale", "--pred-scale", "--min-depth", "--max-depth"},
+                    {"--json", "--median-scaling"});
+  const std::string gt_dir = opt.Required("--gt");
+  const std::string pred_dir = opt.Required("--pred");
+  const double gt_scale = opt.Number("--gt-scale", 256.0);
+  const double pred_scale = opt.Number("--pred-scale", 256.0);
+  if (!(gt_scale > 0.0)) throw UsageError("--gt-scale must be > 0");
+  if (!(pred_scale > 0.0)) throw UsageError("--pred-scale must be > 0");
+  DepthMetricsOptions metrics;
+  metrics.min_depth = opt.Number("--min-depth", metrics.min_depth);
+  metrics.max_depth = opt.Number("--max-depth", metrics.max_depth);
+  metrics.median_scaling = opt.Has("--median-scaling");
+  try {
+    metrics.Check();
+  } catch (const ConfigError& e) {
+    throw UsageError(e.what());
+  }
+
+  namespace fs = std::filesystem;
+  std::error_code ec;
+  for (const auto& [dir, what] : {std::make_pair(gt_dir, "ground-truth"),
+                                  std::make_pair(pred_dir, "prediction")}) {
+    if (!fs::is_directory(dir, ec)) throw InputError(std::string(what) + " folder not found: " + dir);
+  }
+  std::vector<std::string> names;
+  for (const auto& entry : fs::directory_iterator(gt_dir)) {
+    if (entry.is_regular_file() && entry.path().extension() == ".png") {
+      names.push_back(entry.path().filename().string());
+    }
+  }
+  std::sort(names.begin(), names.end());
+  if (names.empty()) throw InputError("no .png depth map in ground-truth folder " + gt_dir);
+
+  std::vector<DepthErrors> per_image;
+  for (const std::string& name : names) {
+    const std::string gt_path = (fs::path(gt_dir) / name).string();
+    const std::string pred_path = (fs::path(pred_dir) / name).string();
+    if (!fs::exists(pred_path, ec)) {
+      throw InputError("no prediction for ground truth " + gt_path + ": expected " + pred_path);
+    }
+    const ImageF gt = io::ReadDepthPng(gt_path, gt_scale);
+    const ImageF pred = io::ReadDepthPng(pred_path, pred_scale);
+    if (gt.width() != pred.width() || gt.height() != pred.height()) {
+      throw InputError("size mismatch: ground truth " + gt_path + " is " +
+                       std::to_string(gt.width()) + "x" + std::to_string(gt.height()) +
+                       ", prediction " + pred_path + " is " + std::to_string(pred.width()) +
+                       "x" + std::to_string(pred.height()) + "; expected equal sizes");
+    }
+    per_image.push_back(ComputeDepthErrors(gt, pred, metrics));
+  }
+  const DepthErrors mean = AverageDepthErrors(per_image);
+  const size_t skipped = names.size() - mean.num_images;
+
+  if (opt.Has("--json")) {
+    io::JsonValue out = io::JsonValue::Object();
+    out.Set("num_images", static_cast<int64_t>(mean.num_images));
+    out.Set("num_skipped", static_cast<int64_t>(skipped));
+    out.Set("num_pixels", static_cast<int64_t>(mean.num_pixels));
+    out.Set("median_scaling", metrics.median_scaling);
+    out.Set("median_scale_mean", metrics.median_scaling ? mean.median_scale : 1.0);
+    out.Set("abs_rel", mean.abs_rel);
+    out.Set("sq_rel", mean.sq_rel);
+    out.Set("rmse", mean.rmse);
+    out.Set("rmse_log", mean.rmse_log);
+    out.Set("a1", mean.a1);
+    out.Set("a2", mean.a2);
+    out.Set("a3", mean.a3);
+    std::cout << out.Dump() << "\n";
+    return 0;
+  }
+  std::cout << "images: " << mean.num_images << " evaluated";
+  if (skipped > 0) std::cout << ", " << skipped << " without valid ground truth skipped";
+  std::cout << " (" << mean.num_pixels << " pixels, depth in (" << metrics.min_depth << ", "
+            << metrics.max_depth << ") m)\n";
+  if (metrics.median_scaling) {
+    std::cout << "median scaling: mean ratio " << Fixed(mean.median_scale, 4) << "\n";
+  }
+  std::cout << "   abs_rel    sq_rel      rmse  rmse_log        a1        a2        a3\n";
+  char buf[160];
+  std::snprintf(buf, sizeof(buf), "%10.4f%10.4f%10.4f%10.4f%10.4f%10.4f%10.4f\n", mean.abs_rel,
+                mean.sq_rel, mean.rmse, mean.rmse_log, mean.a1, mean.a2, mean.a3);
+  std::cout << buf;
+  return 0;
+}
+
+}  // namespace
+}  // namespace dfo
+
+int main(int argc, char** argv) {
+  if (argc < 2) {
+    std::cerr << "dfo_eval: error: no command given, expected traj or depth (see dfo_eval --help)\n";
+    return 2;
+  }
+  const std::string command = argv[1];
+  if (command == "--help" || command == "-h" || command == "help") {
+    std::cout << dfo::kMainHelp;
+    return 0;
+  }
+  try {
+    if (command == "traj") return dfo::RunTraj(argc - 2, argv + 2);
+    if (command == "depth") return dfo::RunDepth(argc - 2, argv + 2);
+    std::cerr << "dfo_eval: error: unknown command '" << command
+              << "', expected traj or depth (see dfo_eval --help)\n";
+    return 2;
+  } catch (const dfo::UsageError& e) {
+    std::cerr << "dfo_eval " << command << ": error: " << e.what() << " (see dfo_eval " << command
+              << " --help)\n";
+    return 2;
+  } catch (const std::exception& e) {
+    std::cerr << "dfo_eval " << command << ": error: " << e.what() << "\n";
+    return 1;
+  }
+}
