@@ -1,5 +1,7 @@
 #include "dfo_io/camera_yaml.h"
 
+#include <yaml-cpp/yaml.h>
+
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
@@ -9,8 +11,6 @@
 #include <set>
 #include <sstream>
 #include <vector>
-
-#include <yaml-cpp/yaml.h>
 
 #include "dfo_core/error.h"
 #include "dfo_io/config.h"
@@ -61,9 +61,9 @@ CameraYaml ReadCameraYaml(const std::string& path) {
   if (!root.IsMap()) {
     throw InputError(path + ": expected a mapping of camera keys (fx, fy, cx, cy, width, height)");
   }
-  static const std::vector<std::string> kKnown = {
-      "model", "width", "height", "fx", "fy", "cx", "cy", "depth_scale", "fps", "timestamps",
-      "distortion"};
+  static const std::vector<std::string> kKnown = {"model", "width",      "height",    "fx",
+                                                  "fy",    "cx",         "cy",        "depth_scale",
+                                                  "fps",   "timestamps", "distortion"};
   std::set<std::string> seen;
   for (const auto& item : root) {
     const std::string key = item.first.Scalar();

@@ -15,8 +15,8 @@
 //                         # relative to the YAML file's folder
 //   distortion: [0, 0, 0, 0, 0]  # optional; must be all zero (dfo takes rectified images)
 //
-// Unknown keys are errors (usually typos), as are missing or non-numeric values; every message names
-// the file and the 1-based line.
+// Unknown keys are errors (usually typos), as are missing or non-numeric values; every message
+// names the file and the 1-based line.
 #ifndef DFO_IO_CAMERA_YAML_H_
 #define DFO_IO_CAMERA_YAML_H_
 

@@ -1,5 +1,7 @@
 #include "dfo_io/config.h"
 
+#include <yaml-cpp/yaml.h>
+
 #include <algorithm>
 #include <cerrno>
 #include <cmath>
@@ -10,8 +12,6 @@
 #include <limits>
 #include <set>
 #include <sstream>
-
-#include <yaml-cpp/yaml.h>
 
 #include "dfo_core/error.h"
 
@@ -174,9 +174,7 @@ bool ParseElement(ConfigType type, const std::string& text, ConfigValue* out) {
       return true;
     }
     case ConfigType::kString:
-    case ConfigType::kStringList:
-      *out = text;
-      return true;
+    case ConfigType::kStringList: *out = text; return true;
   }
   return false;
 }
@@ -432,9 +430,9 @@ const Config::Entry& Config::EntryOf(const std::string& path, ConfigType expecte
   const ConfigKey* key = schema_->Find(path);
   DFO_CHECK(key != nullptr) << "configuration key '" << path << "' is not declared in the schema"
                             << Suggestion(path, schema_->KeyPaths());
-  DFO_CHECK(key->type == expected) << "configuration key '" << path << "' is a "
-                                   << ConfigTypeName(key->type) << ", asked for a "
-                                   << ConfigTypeName(expected);
+  DFO_CHECK(key->type == expected)
+      << "configuration key '" << path << "' is of type " << ConfigTypeName(key->type)
+      << ", asked for type " << ConfigTypeName(expected);
   return values_.at(path);
 }
 
@@ -489,7 +487,7 @@ void Config::Set(const std::string& path, const ConfigValue& value, const std::s
   const ConfigKey* key = schema_->Find(path);
   DFO_CHECK(key != nullptr) << "configuration key '" << path << "' is not declared";
   DFO_CHECK(value.index() == static_cast<size_t>(key->type))
-      << path << " is a " << ConfigTypeName(key->type);
+      << path << " is of type " << ConfigTypeName(key->type);
   const std::string broken = key->Violation(value);
   if (!broken.empty()) {
     throw ConfigError(source + ": " + path + " = " + FormatConfigValue(value) + " violates " +
@@ -529,6 +527,11 @@ void Config::ApplyOverride(const std::string& override_text) {
     ok = NodeToValue(node, key->type, &value, &why);
   }
   if (!ok) throw ConfigError(where + ": " + path + ": " + why);
+  const std::string broken = key->Violation(value);
+  if (!broken.empty()) {
+    throw ConfigError(where + ": " + path + " = " + FormatConfigValue(value) + " violates " +
+                      broken);
+  }
   Set(path, value, "--set");
 }
 
@@ -575,18 +578,16 @@ void Config::WriteYaml(const std::string& path) const {
 // Loading
 
 Config LoadConfigFromString(const std::string& yaml_text, const std::string& name,
-                            const ConfigSchema& schema,
-                            const std::vector<std::string>& overrides) {
+                            const ConfigSchema& schema, const std::vector<std::string>& overrides) {
   Config config(schema);
   YAML::Node root;
   try {
     root = YAML::Load(yaml_text);
   } catch (const YAML::Exception& e) {
     // yaml-cpp marks are 0-based; messages are 1-based like editors.
-    const std::string where =
-        e.mark.is_null() ? name
-                         : name + ":" + std::to_string(e.mark.line + 1) + ":" +
-                               std::to_string(e.mark.column + 1);
+    const std::string where = e.mark.is_null() ? name
+                                               : name + ":" + std::to_string(e.mark.line + 1) +
+                                                     ":" + std::to_string(e.mark.column + 1);
     throw ConfigError(where + ": malformed YAML: " + e.msg);
   }
   if (root.IsDefined() && !root.IsNull()) {
@@ -605,8 +606,7 @@ Config LoadConfigFromString(const std::string& yaml_text, const std::string& nam
                           Suggestion(section, schema.sections()));
       }
       if (!seen_sections.insert(section).second) {
-        throw ConfigError(Where(name, section_line) + ": section '" + section +
-                          "' appears twice");
+        throw ConfigError(Where(name, section_line) + ": section '" + section + "' appears twice");
       }
       const YAML::Node& keys = section_item.second;
       if (keys.IsNull()) continue;  // "section:" with nothing under it

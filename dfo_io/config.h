@@ -60,9 +60,9 @@ struct ConfigKey {
     double value = 0.0;
     bool exclusive = false;  // true: strict (<, >), false: inclusive (<=, >=)
   };
-  std::optional<Bound> lower;         // value >= lower (or > when exclusive)
-  std::optional<Bound> upper;         // value <= upper (or < when exclusive)
-  std::vector<std::string> allowed;   // non-empty: the string must be one of these
+  std::optional<Bound> lower;        // value >= lower (or > when exclusive)
+  std::optional<Bound> upper;        // value <= upper (or < when exclusive)
+  std::vector<std::string> allowed;  // non-empty: the string must be one of these
 
   ConfigKey& Min(double v);          // value >= v
   ConfigKey& GreaterThan(double v);  // value > v
@@ -174,9 +174,9 @@ class Config {
   std::map<std::string, Entry> values_;
 };
 
-// Reads `yaml_path` (skipped when empty: defaults only), validates it against `schema`, then applies
-// `overrides` ("section.key=value", later ones win). Throws dfo::ConfigError (see the file comment)
-// or dfo::InputError when the file cannot be read.
+// Reads `yaml_path` (skipped when empty: defaults only), validates it against `schema`, then
+// applies `overrides` ("section.key=value", later ones win). Throws dfo::ConfigError (see the file
+// comment) or dfo::InputError when the file cannot be read.
 Config LoadConfig(const std::string& yaml_path, const ConfigSchema& schema,
                   const std::vector<std::string>& overrides = {});
 

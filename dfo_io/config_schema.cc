@@ -8,7 +8,8 @@ ConfigSchema BuildSchema() {
 
   // Defaults mirror DatasetOptions (dfo_io/dataset.h); a test checks that they agree.
   s.AddSection("dataset", "Input sequence: which recording to read and how to load its frames.");
-  s.AddString("dataset.type", "kitti", "Dataset layout: KITTI odometry, TUM RGB-D or an image folder")
+  s.AddString("dataset.type", "kitti",
+              "Dataset layout: KITTI odometry, TUM RGB-D or an image folder")
       .OneOf({"kitti", "tum", "folder"});
   s.AddString("dataset.path", "",
               "Dataset root (KITTI: folder holding sequences/ and poses/; TUM: sequence folder; "

@@ -119,10 +119,9 @@ ImageU8 Sequence::LoadNativeImage(size_t i) const {
     throw InputError(FramePrefix(i) + e.what());
   }
   if (image.width() != native_camera_.width || image.height() != native_camera_.height) {
-    throw InputError(FramePrefix(i) + "images of different sizes in one sequence: " +
-                     f.image_path + " is " + std::to_string(image.width()) + "x" +
-                     std::to_string(image.height()) + ", expected " +
-                     std::to_string(native_camera_.width) + "x" +
+    throw InputError(FramePrefix(i) + "images of different sizes in one sequence: " + f.image_path +
+                     " is " + std::to_string(image.width()) + "x" + std::to_string(image.height()) +
+                     ", expected " + std::to_string(native_camera_.width) + "x" +
                      std::to_string(native_camera_.height) + " (the size of " +
                      frames_.front().image_path + ")");
   }
@@ -173,11 +172,11 @@ void Sequence::Validate() const {
       throw InputError(FramePrefix(i) + e.what());
     }
     if (w != native_camera_.width || h != native_camera_.height) {
-      throw InputError(FramePrefix(i) + "images of different sizes in one sequence: " +
-                       f.image_path + " is " + std::to_string(w) + "x" + std::to_string(h) +
-                       ", expected " + std::to_string(native_camera_.width) + "x" +
-                       std::to_string(native_camera_.height) + " (the size of " +
-                       frames_.front().image_path + ")");
+      throw InputError(
+          FramePrefix(i) + "images of different sizes in one sequence: " + f.image_path + " is " +
+          std::to_string(w) + "x" + std::to_string(h) + ", expected " +
+          std::to_string(native_camera_.width) + "x" + std::to_string(native_camera_.height) +
+          " (the size of " + frames_.front().image_path + ")");
     }
     if (!f.depth_path.empty()) {
       ImageU16 raw;

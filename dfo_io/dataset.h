@@ -35,8 +35,8 @@ namespace dfo::io {
 // What to open and how to load it. Mirrors the `dataset` section of the configuration
 // (DatasetOptionsFromConfig in dfo_io/config_schema.h).
 struct DatasetOptions {
-  std::string type = "kitti";  // kitti | tum | folder
-  std::string path;            // dataset root (see the layouts above); must be set
+  std::string type = "kitti";   // kitti | tum | folder
+  std::string path;             // dataset root (see the layouts above); must be set
   std::string sequence = "00";  // KITTI sequence name (folder under sequences/); unused otherwise
   int first = 0;                // first frame used (index in the full recording), >= 0
   int last = -1;                // last frame used, inclusive; -1 = the recording's last frame
@@ -47,10 +47,10 @@ struct DatasetOptions {
   bool depth = false;           // true: load ground-truth depth maps with the images, if any
 
   // TUM RGB-D association (seconds), see tum_dataset.h.
-  double tum_max_depth_diff = 0.02;       // rgb <-> depth, as TUM's associate.py (0.02 s)
+  double tum_max_depth_diff = 0.02;         // rgb <-> depth, as TUM's associate.py (0.02 s)
   std::string tum_gt_mode = "interpolate";  // interpolate | nearest
-  double tum_max_gt_diff = 0.02;  // nearest mode (and fallback): max |t_gt - t_frame|
-  double tum_max_gt_gap = 0.1;    // interpolate mode: max spacing of the two bracketing gt poses
+  double tum_max_gt_diff = 0.02;            // nearest mode (and fallback): max |t_gt - t_frame|
+  double tum_max_gt_gap = 0.1;  // interpolate mode: max spacing of the two bracketing gt poses
 
   // Throws dfo::ConfigError naming the field, its value and the rule ("dataset.first = -2
   // violates >= 0").
@@ -70,8 +70,8 @@ struct FrameInfo {
 struct LoadedFrame {
   int index = 0;  // index within the sequence
   int64_t timestamp_ns = 0;
-  ImageU8 image;    // 1 channel (gray) or 3 channels (RGB), output resolution
-  ImageF depth_m;   // depth in metres at output resolution, 0 = invalid; empty when not loaded
+  ImageU8 image;         // 1 channel (gray) or 3 channels (RGB), output resolution
+  ImageF depth_m;        // depth in metres at output resolution, 0 = invalid; empty when not loaded
   PinholeCamera camera;  // intrinsics matching `image`
   std::optional<SE3d> world_from_cam;  // ground truth, when known
 };

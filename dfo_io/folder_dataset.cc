@@ -58,11 +58,10 @@ Sequence OpenFolderSequence(const DatasetOptions& options) {
     throw InputError(what + ", frame 0: " + e.what());
   }
   if (width != camera.camera.width || height != camera.camera.height) {
-    throw InputError(camera_path.string() + ": camera is for " +
-                     std::to_string(camera.camera.width) + "x" +
-                     std::to_string(camera.camera.height) + " images, but " +
-                     frames.front().image_path + " is " + std::to_string(width) + "x" +
-                     std::to_string(height));
+    throw InputError(
+        camera_path.string() + ": camera is for " + std::to_string(camera.camera.width) + "x" +
+        std::to_string(camera.camera.height) + " images, but " + frames.front().image_path +
+        " is " + std::to_string(width) + "x" + std::to_string(height));
   }
   return Sequence(options.path, std::move(frames), camera.camera,
                   camera.depth_scale.value_or(1000.0), options);

@@ -50,8 +50,8 @@ KittiCalibration ReadKittiCalibration(const std::string& path) {
     if (line.find_first_not_of(" \t\r") == std::string::npos) continue;
     const size_t colon = line.find(':');
     if (colon == std::string::npos) {
-      throw InputError(where + ": expected a labelled row like 'P0: <12 numbers>', found '" +
-                       line + "'");
+      throw InputError(where + ": expected a labelled row like 'P0: <12 numbers>', found '" + line +
+                       "'");
     }
     std::istringstream label_stream(line.substr(0, colon));
     std::string label;
@@ -216,8 +216,8 @@ Sequence OpenKittiSequence(const DatasetOptions& options) {
   }
   const PinholeCamera camera = CameraFromProjection(row->second, width, height);
   CheckCalibration(camera, calib_path + " row " + cam_label);
-  return Sequence("KITTI " + seq_name + (cam == 2 ? " (image_2)" : " (image_0)"),
-                  std::move(frames), camera, /*depth_scale=*/256.0, options);
+  return Sequence("KITTI " + seq_name + (cam == 2 ? " (image_2)" : " (image_0)"), std::move(frames),
+                  camera, /*depth_scale=*/256.0, options);
 }
 
 }  // namespace dfo::io

@@ -53,8 +53,8 @@ std::vector<TumListEntry> ReadTumFileList(const std::string& path) {
     }
     TumListEntry entry{ns, name, line_number};
     if (!entries.empty() && entry.timestamp_ns <= entries.back().timestamp_ns) {
-      throw InputError(where + ": timestamps going backwards: " + stamp +
-                       " is not after line " + std::to_string(entries.back().line) + "'s " +
+      throw InputError(where + ": timestamps going backwards: " + stamp + " is not after line " +
+                       std::to_string(entries.back().line) + "'s " +
                        FormatNsAsSeconds(entries.back().timestamp_ns));
     }
     entries.push_back(std::move(entry));
@@ -102,9 +102,9 @@ std::optional<SE3d> GroundTruthAt(const Trajectory& gt, int64_t t_ns, const std:
   if (gt.empty()) return std::nullopt;
   const auto& poses = gt.poses();
   // First pose with timestamp >= t.
-  const auto it = std::lower_bound(
-      poses.begin(), poses.end(), t_ns,
-      [](const StampedPose& p, int64_t t) { return p.timestamp_ns < t; });
+  const auto it =
+      std::lower_bound(poses.begin(), poses.end(), t_ns,
+                       [](const StampedPose& p, int64_t t) { return p.timestamp_ns < t; });
   const size_t k = static_cast<size_t>(it - poses.begin());
   if (k < poses.size() && poses[k].timestamp_ns == t_ns) return poses[k].world_from_cam;
   if (mode == "interpolate" && k > 0 && k < poses.size()) {
@@ -177,9 +177,10 @@ Sequence OpenTumSequence(const DatasetOptions& options) {
     if (c.depth_scale) depth_scale = *c.depth_scale;
     camera_from_file = true;
   } else if (!TumDefaultCamera(options.path, &camera, nullptr)) {
-    throw InputError(what + ": no camera.yaml and the folder name names no freiburg sensor "
-                     "(fr1/fr2/fr3): add " + camera_yaml.string() +
-                     " with fx, fy, cx, cy, width, height");
+    throw InputError(what +
+                     ": no camera.yaml and the folder name names no freiburg sensor "
+                     "(fr1/fr2/fr3): add " +
+                     camera_yaml.string() + " with fx, fy, cx, cy, width, height");
   }
 
   const std::string rgb_list = (root / "rgb.txt").string();
@@ -208,9 +209,9 @@ Sequence OpenTumSequence(const DatasetOptions& options) {
   if (IsFile(gt_path)) {
     const Trajectory gt = ReadTumTrajectory(gt_path.string());
     for (auto& f : frames) {
-      f.world_from_cam = GroundTruthAt(gt, f.timestamp_ns, options.tum_gt_mode,
-                                       SecondsToNs(options.tum_max_gt_diff),
-                                       SecondsToNs(options.tum_max_gt_gap));
+      f.world_from_cam =
+          GroundTruthAt(gt, f.timestamp_ns, options.tum_gt_mode,
+                        SecondsToNs(options.tum_max_gt_diff), SecondsToNs(options.tum_max_gt_gap));
     }
   }
 
@@ -226,9 +227,8 @@ Sequence OpenTumSequence(const DatasetOptions& options) {
     throw InputError(what + ": the camera (" +
                      (camera_from_file ? camera_yaml.string() : std::string("freiburg default")) +
                      ") is for " + std::to_string(camera.width) + "x" +
-                     std::to_string(camera.height) + " images, but " +
-                     frames.front().image_path + " is " + std::to_string(width) + "x" +
-                     std::to_string(height));
+                     std::to_string(camera.height) + " images, but " + frames.front().image_path +
+                     " is " + std::to_string(width) + "x" + std::to_string(height));
   }
   CheckCalibration(camera, camera_from_file ? camera_yaml.string() : what);
   return Sequence("TUM " + root.lexically_normal().filename().string(), std::move(frames), camera,

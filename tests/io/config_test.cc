@@ -1,10 +1,10 @@
 #include "dfo_io/config.h"
 
+#include <gtest/gtest.h>
+
 #include <filesystem>
 #include <fstream>
 #include <string>
-
-#include <gtest/gtest.h>
 
 #include "dfo_core/error.h"
 #include "dfo_io/config_schema.h"
@@ -47,7 +47,8 @@ void ExpectConfigError(Fn fn, const std::vector<std::string>& needles) {
     FAIL() << "no ConfigError thrown";
   } catch (const ConfigError& e) {
     const std::string what = e.what();
-    for (const auto& n : needles) EXPECT_NE(what.find(n), std::string::npos) << what << "\n  missing: " << n;
+    for (const auto& n : needles)
+      EXPECT_NE(what.find(n), std::string::npos) << what << "\n  missing: " << n;
   }
 }
 
@@ -106,8 +107,9 @@ TEST(Config, EmptyFileAndEmptySectionsGiveDefaults) {
 }
 
 TEST(ConfigErrors, UnknownSectionSuggestsClosest) {
-  ExpectConfigError([] { LoadConfigFromString("a: 1\nkeyfrme:\n  x: 1\n", "s.yaml", TestSchema()); },
-                    {"s.yaml:1", "unknown section 'a'"});
+  ExpectConfigError(
+      [] { LoadConfigFromString("a: 1\nkeyfrme:\n  x: 1\n", "s.yaml", TestSchema()); },
+      {"s.yaml:1", "unknown section 'a'"});
   ExpectConfigError(
       [] { LoadConfigFromString("keyfrme:\n  enabled: true\n", "s.yaml", TestSchema()); },
       {"s.yaml:1", "unknown section 'keyfrme'", "did you mean 'keyframe'"});
@@ -125,9 +127,7 @@ TEST(ConfigErrors, UnknownKeySuggestsClosest) {
 
 TEST(ConfigErrors, WrongTypeNamesExpectationAndFoundText) {
   ExpectConfigError(
-      [] {
-        LoadConfigFromString("keyframe:\n  translation_ratio: abc\n", "t.yaml", TestSchema());
-      },
+      [] { LoadConfigFromString("keyframe:\n  translation_ratio: abc\n", "t.yaml", TestSchema()); },
       {"t.yaml:2", "keyframe.translation_ratio", "expected a number, found 'abc'"});
   ExpectConfigError(
       [] { LoadConfigFromString("keyframe:\n  max_interval: 1.5\n", "t.yaml", TestSchema()); },
@@ -139,9 +139,7 @@ TEST(ConfigErrors, WrongTypeNamesExpectationAndFoundText) {
       [] { LoadConfigFromString("tracker:\n  iterations: 3\n", "t.yaml", TestSchema()); },
       {"t.yaml:2", "tracker.iterations", "expected a list of integers"});
   ExpectConfigError(
-      [] {
-        LoadConfigFromString("tracker:\n\n  iterations: [1, x]\n", "t.yaml", TestSchema());
-      },
+      [] { LoadConfigFromString("tracker:\n\n  iterations: [1, x]\n", "t.yaml", TestSchema()); },
       {"t.yaml:3", "'x' as element 1"});
   ExpectConfigError(
       [] { LoadConfigFromString("tracker:\n  mode: [gn]\n", "t.yaml", TestSchema()); },
@@ -201,16 +199,14 @@ TEST(ConfigErrors, BadOverrides) {
                     {"--set 'keyframe.enabled'", "no '='"});
   ExpectConfigError(
       [] { LoadConfigFromString("", "o.yaml", TestSchema(), {"keyframe.enabeld=true"}); },
-      {"--set", "unknown configuration key 'keyframe.enabeld'",
-       "did you mean 'keyframe.enabled'"});
+      {"--set", "unknown configuration key 'keyframe.enabeld'", "did you mean 'keyframe.enabled'"});
   ExpectConfigError(
       [] { LoadConfigFromString("", "o.yaml", TestSchema(), {"keyframe.max_interval=abc"}); },
       {"--set 'keyframe.max_interval=abc'", "expected an integer, found 'abc'"});
   ExpectConfigError(
-      [] {
-        LoadConfigFromString("", "o.yaml", TestSchema(), {"keyframe.translation_ratio=-0.1"});
-      },
-      {"--set", "keyframe.translation_ratio = -0.1 violates > 0"});
+      [] { LoadConfigFromString("", "o.yaml", TestSchema(), {"keyframe.translation_ratio=-0.1"}); },
+      {"--set 'keyframe.translation_ratio=-0.1'",
+       "keyframe.translation_ratio = -0.1 violates > 0"});
 }
 
 TEST(Config, GettersOfWrongTypeOrUnknownKeyAreInternalErrors) {
@@ -328,8 +324,8 @@ TEST(DfoConfig, DatasetOptionsFromConfigAppliesValuesAndChecks) {
   EXPECT_EQ(o.first, 3);
   EXPECT_EQ(o.last, 9);
   EXPECT_TRUE(o.color);
-  const Config bad = LoadConfigFromString("dataset:\n  path: /x\n  first: 5\n  last: 2\n",
-                                          "d.yaml", DfoSchema());
+  const Config bad =
+      LoadConfigFromString("dataset:\n  path: /x\n  first: 5\n  last: 2\n", "d.yaml", DfoSchema());
   ExpectConfigError([&] { DatasetOptionsFromConfig(bad); }, {"dataset.last = 2"});
 }
 

@@ -1,13 +1,13 @@
 #include "dfo_io/dataset.h"
 
+#include <gtest/gtest.h>
+
 #include <cmath>
 #include <cstdio>
 #include <filesystem>
 #include <fstream>
 #include <set>
 #include <string>
-
-#include <gtest/gtest.h>
 
 #include "dfo_core/error.h"
 #include "dfo_io/camera_yaml.h"
@@ -31,7 +31,8 @@ void WriteText(const std::string& path, const std::string& text) {
 ImageU8 Pattern(int width, int height, int index) {
   ImageU8 image(width, height, 1);
   for (int y = 0; y < height; ++y) {
-    for (int x = 0; x < width; ++x) image(x, y) = static_cast<uint8_t>((x * 7 + y * 3 + index) % 256);
+    for (int x = 0; x < width; ++x)
+      image(x, y) = static_cast<uint8_t>((x * 7 + y * 3 + index) % 256);
   }
   return image;
 }
@@ -39,8 +40,8 @@ ImageU8 Pattern(int width, int height, int index) {
 std::string ProjectionRow(const std::string& label, double fx, double cx, double cy,
                           double tx = 0.0) {
   char buf[256];
-  std::snprintf(buf, sizeof(buf), "%s: %.6e 0 %.6e %.6e 0 %.6e %.6e 0 0 0 1 0\n", label.c_str(),
-                fx, cx, fx * tx, fx, cy);
+  std::snprintf(buf, sizeof(buf), "%s: %.6e 0 %.6e %.6e 0 %.6e %.6e 0 0 0 1 0\n", label.c_str(), fx,
+                cx, fx * tx, fx, cy);
   return buf;
 }
 
@@ -181,8 +182,7 @@ TEST(TumRealData, Fr3CabinetKeyframes) {
   ASSERT_EQ(gt.size(), 58u);
   for (size_t i = 0; i < seq.size(); ++i) {
     EXPECT_EQ(seq.timestamp_ns(i), gt[i].timestamp_ns);
-    EXPECT_LT((seq.frame(i).world_from_cam->Matrix() - gt[i].world_from_cam.Matrix()).norm(),
-              1e-9);
+    EXPECT_LT((seq.frame(i).world_from_cam->Matrix() - gt[i].world_from_cam.Matrix()).norm(), 1e-9);
   }
   const LoadedFrame frame = seq.Load(3);
   EXPECT_EQ(frame.image.channels(), 3);
@@ -299,8 +299,9 @@ TEST(KittiErrors, WrongCalibration) {
   ExpectInputError([&] { OpenSequence(KittiOptions(f)); },
                    {"calib.txt row P0", "wrong calibration", "fx"});
   WriteText(f.seq_dir + "/calib.txt", ProjectionRow("P0", 50, 400, 14.5));
-  ExpectInputError([&] { OpenSequence(KittiOptions(f)); },
-                   {"calib.txt row P0", "principal point (400, 14.5) lies outside the 40x30 image"});
+  ExpectInputError(
+      [&] { OpenSequence(KittiOptions(f)); },
+      {"calib.txt row P0", "principal point (400, 14.5) lies outside the 40x30 image"});
 }
 
 TEST(KittiErrors, TimesCountDiffers) {
@@ -331,8 +332,8 @@ TEST(KittiErrors, ImagesOfDifferentSizes) {
   const Sequence seq = OpenSequence(KittiOptions(f));  // lazy: opening reads only the first
   EXPECT_NO_THROW(seq.LoadImage(2));
   ExpectInputError([&] { seq.LoadImage(3); },
-                   {"frame 3", "images of different sizes in one sequence", "000003.png",
-                    "41x30", "expected 40x30"});
+                   {"frame 3", "images of different sizes in one sequence", "000003.png", "41x30",
+                    "expected 40x30"});
   ExpectInputError([&] { seq.Validate(); },
                    {"frame 3", "images of different sizes in one sequence", "000003.png"});
 }
@@ -606,8 +607,8 @@ TEST(ResizeDepth, NeverAveragesAndKeepsValidity) {
       depth(x, y) = ((x / 4 + y / 4) % 2 == 0) ? 2.0f : 8.0f;
     }
   }
-  for (const auto& [w, h] : std::vector<std::pair<int, int>>{{16, 12}, {21, 13}, {64, 48},
-                                                              {100, 70}}) {
+  for (const auto& [w, h] :
+       std::vector<std::pair<int, int>>{{16, 12}, {21, 13}, {64, 48}, {100, 70}}) {
     const ImageF out = ResizeDepth(depth, w, h);
     ASSERT_EQ(out.width(), w);
     ASSERT_EQ(out.height(), h);
