@@ -1,0 +1,233 @@
+// Runs the real dfo_eval executable (DFO_EVAL_EXE) and checks its output, exit status and error
+// lines.
+#include <sys/wait.h>
+
+#include <cmath>
+#include <cstdio>
+#include <filesystem>
+#include <fstream>
+#include <sstream>
+#include <string>
+
+#include <gtest/gtest.h>
+
+#include "dfo_core/trajectory.h"
+#include "dfo_io/image_io.h"
+#include "dfo_io/json.h"
+#include "dfo_io/trajectory_io.h"
+#include "tests/support/test_support.h"
+
+namespace dfo {
+namespace {
+
+struct CommandResult {
+  int status = -1;  // exit status
+  std::string out;  // stdout
+  std::string err;  // stderr
+};
+
+CommandResult RunEval(const std::string& args) {
+  static int counter = 0;
+  const std::string err_path =
+      test::MakeTempDir("dfo_eval_stderr") + "/stderr_" + std::to_string(counter++) + ".txt";
+  const std::string command = std::string(DFO_EVAL_EXE) + " " + args + " 2>" + err_path;
+  CommandResult result;
+  FILE* pipe = popen(command.c_str(), "r");
+  if (pipe == nullptr) return result;
+  char buf[4096];
+  size_t n = 0;
+  while ((n = fread(buf, 1, sizeof(buf), pipe)) > 0) result.out.append(buf, n);
+  const int wait_status = pclose(pipe);
+  result.status = WIFEXITED(wait_status) ? WEXITSTATUS(wait_status) : -1;
+  std::ifstream err(err_path);
+  std::stringstream ss;
+  ss << err.rdbuf();
+  result.err = ss.str();
+  return result;
+}
+
+// Exactly one line on stderr containing `fragment`, nothing on stdout, non-zero exit.
+void ExpectCleanFailure(const CommandResult& r, const std::string& fragment) {
+  EXPECT_NE(r.status, 0);
+  EXPECT_TRUE(r.out.empty()) << r.out;
+  EXPECT_NE(r.err.find(fragment), std::string::npos) << r.err;
+  ASSERT_FALSE(r.err.empty());
+  EXPECT_EQ(r.err.find('\n'), r.err.size() - 1) << "more than one line: " << r.err;
+}
+
+const char* kJsonKeys[] = {"num_poses",       "scale",          "ate_rmse",
+                           "ate_mean",        "ate_median",     "ate_max",
+                           "rpe_trans_rmse",  "rpe_rot_rmse_deg", "kitti_t_rel_pct",
+                           "kitti_r_rel_deg_per_100m", "snippet_ate_mean", "snippet_ate_std"};
+
+// A curving trajectory written as KITTI, and the same scaled by 2 about the origin.
+void WriteScaledPair(const std::string& dir, int n) {
+  Trajectory gt, est;
+  SE3d pose;
+  for (int i = 0; i < n; ++i) {
+    gt.Add(i * 100000000LL, pose);
+    est.Add(i * 100000000LL, SE3d(pose.so3(), 2.0 * pose.translation()));
+    Vector6d xi;
+    xi << 0.05 * std::sin(0.3 * i), 0.0, 1.0, 0.0, 0.03, 0.01 * std::cos(0.2 * i);
+    pose = pose * SE3d::Exp(xi);
+  }
+  io::WriteKittiTrajectory(dir + "/gt.txt", gt);
+  io::WriteKittiTrajectory(dir + "/est.txt", est);
+}
+
+TEST(DfoEval, HelpExitsZero) {
+  for (const std::string args : {"--help", "traj --help", "depth --help"}) {
+    const CommandResult r = RunEval(args);
+    EXPECT_EQ(r.status, 0) << args;
+    EXPECT_NE(r.out.find("usage: dfo_eval"), std::string::npos) << r.out;
+    EXPECT_TRUE(r.err.empty()) << r.err;
+  }
+}
+
+TEST(DfoEval, CommandLineMistakesAreOneClearLine) {
+  const std::string dir = test::MakeTempDir("dfo_eval_cli");
+  WriteScaledPair(dir, 20);
+  const std::string files = " --gt " + dir + "/gt.txt --est " + dir + "/est.txt";
+  ExpectCleanFailure(RunEval(""), "no command");
+  ExpectCleanFailure(RunEval("trajectory"), "unknown command 'trajectory'");
+  ExpectCleanFailure(RunEval("traj" + files + " --bogus"), "unknown option '--bogus'");
+  ExpectCleanFailure(RunEval("traj" + files + " --delta"), "option --delta needs a value");
+  ExpectCleanFailure(RunEval("traj" + files + " --delta abc"), "'abc' is not a number");
+  ExpectCleanFailure(RunEval("traj --gt " + dir + "/gt.txt"), "option --est is required");
+  ExpectCleanFailure(RunEval("traj" + files + " --align affine"), "affine");
+  ExpectCleanFailure(RunEval("traj" + files + " --format euroc"), "euroc");
+  ExpectCleanFailure(RunEval("traj" + files + " --delta-unit s"), "--delta-unit 's'");
+  ExpectCleanFailure(RunEval("traj --gt " + dir + "/missing.txt --est " + dir + "/est.txt"),
+                     "missing.txt");
+  ExpectCleanFailure(RunEval("depth --gt " + dir), "option --pred is required");
+}
+
+TEST(DfoEval, KittiCountMismatchAndBadLinesAreClearErrors) {
+  const std::string dir = test::MakeTempDir("dfo_eval_mismatch");
+  WriteScaledPair(dir, 20);
+  Trajectory shorter = io::ReadKittiTrajectory(dir + "/gt.txt");
+  shorter.poses().pop_back();
+  io::WriteKittiTrajectory(dir + "/short.txt", shorter);
+  ExpectCleanFailure(RunEval("traj --format kitti --gt " + dir + "/gt.txt --est " + dir + "/short.txt"),
+                     "has 20 poses and " + dir + "/short.txt has 19");
+  std::ofstream(dir + "/bad.txt") << "1 0 0 0 0 1 0 0 0 0 1 0\n1 0 0 0 0 1 0 0 0 0 1\n";
+  ExpectCleanFailure(RunEval("traj --format kitti --gt " + dir + "/bad.txt --est " + dir + "/gt.txt"),
+                     dir + "/bad.txt:2: pose line with 11 numbers, expected 12");
+}
+
+TEST(DfoEval, Sim3AlignmentRemovesScaleOfSyntheticPair) {
+  const std::string dir = test::MakeTempDir("dfo_eval_sim3");
+  WriteScaledPair(dir, 60);
+  const std::string files = " --gt " + dir + "/gt.txt --est " + dir + "/est.txt";
+  CommandResult r = RunEval("traj" + files + " --align sim3 --json");
+  ASSERT_EQ(r.status, 0) << r.err;
+  io::JsonValue j = io::ParseJson(r.out, "dfo_eval stdout");
+  for (const char* key : kJsonKeys) EXPECT_TRUE(j.Has(key)) << key;
+  EXPECT_EQ(j["num_poses"].AsInt(), 60);
+  EXPECT_NEAR(j["scale"].AsNumber(), 0.5, 1e-9);
+  EXPECT_LT(j["ate_rmse"].AsNumber(), 1e-9);
+  EXPECT_LT(j["rpe_trans_rmse"].AsNumber(), 1e-9);
+  EXPECT_LT(j["snippet_ate_mean"].AsNumber(), 1e-9);
+  EXPECT_TRUE(j["kitti_t_rel_pct"].IsNull());  // 60 m: no 100 m segment
+  EXPECT_TRUE(j["kitti_r_rel_deg_per_100m"].IsNull());
+
+  r = RunEval("traj" + files + " --align none --json");
+  ASSERT_EQ(r.status, 0) << r.err;
+  j = io::ParseJson(r.out, "dfo_eval stdout");
+  EXPECT_EQ(j["scale"].AsNumber(), 1.0);
+  EXPECT_GT(j["ate_rmse"].AsNumber(), 1.0);
+  EXPECT_NEAR(j["rpe_trans_rmse"].AsNumber(), 1.0, 0.01);  // 2 m steps vs 1 m steps
+  EXPECT_LT(j["snippet_ate_mean"].AsNumber(), 1e-9);      // snippet ATE fits its own scale
+
+  // Text mode names the alignment and the figures; --plot writes a PNG.
+  r = RunEval("traj" + files + " --plot " + dir + "/plots/top.png");
+  ASSERT_EQ(r.status, 0) << r.err;
+  EXPECT_NE(r.out.find("alignment:    sim3"), std::string::npos) << r.out;
+  EXPECT_NE(r.out.find("KITTI         not computed"), std::string::npos) << r.out;
+  int width = 0, height = 0;
+  io::ReadImageSize(dir + "/plots/top.png", &width, &height);
+  EXPECT_EQ(width, 1200);
+  EXPECT_EQ(height, 900);
+}
+
+TEST(DfoEval, KittiReferenceAnswersThroughTheExecutable) {
+  DFO_SKIP_WITHOUT_SHARED_DATA();
+  const std::string dir = test::SharedDataDir() + "/reference_trajectories";
+  CommandResult r = RunEval("traj --gt " + dir + "/KITTI_00_gt.txt --est " + dir +
+                        "/KITTI_00_ORB.txt --format kitti --align se3 --json");
+  ASSERT_EQ(r.status, 0) << r.err;
+  io::JsonValue j = io::ParseJson(r.out, "dfo_eval stdout");
+  EXPECT_EQ(j["num_poses"].AsInt(), 4541);
+  EXPECT_EQ(j["scale"].AsNumber(), 1.0);
+  EXPECT_NEAR(j["ate_rmse"].AsNumber(), 1.303450, 1e-4);
+  EXPECT_NEAR(j["ate_mean"].AsNumber(), 1.156997, 1e-4);
+  EXPECT_NEAR(j["ate_median"].AsNumber(), 1.065625, 1e-4);
+  EXPECT_NEAR(j["ate_max"].AsNumber(), 3.587949, 1e-4);
+  // A 3.7 km drive: every KITTI segment length fits. ORB-SLAM2 (stereo) reports 0.70 % and
+  // 0.25 deg/100 m on sequence 00; these are its poses.
+  EXPECT_NEAR(j["kitti_t_rel_pct"].AsNumber(), 0.70, 0.01);
+  EXPECT_NEAR(j["kitti_r_rel_deg_per_100m"].AsNumber(), 0.25, 0.01);
+  EXPECT_TRUE(j["snippet_ate_mean"].IsNumber());
+
+  r = RunEval("traj --gt " + dir + "/KITTI_00_gt.txt --est " + dir +
+          "/KITTI_00_SPTAM.txt --align se3 --json");  // format detected
+  ASSERT_EQ(r.status, 0) << r.err;
+  j = io::ParseJson(r.out, "dfo_eval stdout");
+  EXPECT_NEAR(j["ate_rmse"].AsNumber(), 3.738488, 1e-4);
+}
+
+TEST(DfoEval, TumAssociationThroughTheExecutable) {
+  DFO_SKIP_WITHOUT_SHARED_DATA();
+  const std::string dir = test::SharedDataDir() + "/reference_trajectories";
+  const std::string files = " --gt " + dir + "/freiburg1_xyz-groundtruth.txt --est " + dir +
+                            "/freiburg1_xyz-rgbdslam.txt --format tum";
+  CommandResult r = RunEval("traj" + files + " --align se3 --json");
+  ASSERT_EQ(r.status, 0) << r.err;
+  io::JsonValue j = io::ParseJson(r.out, "dfo_eval stdout");
+  // 788 estimated poses, 785 have a ground-truth stamp within 10 ms.
+  EXPECT_EQ(j["num_poses"].AsInt(), 785);
+  EXPECT_GT(j["ate_rmse"].AsNumber(), 0.005);
+  EXPECT_LT(j["ate_rmse"].AsNumber(), 0.03);
+  EXPECT_TRUE(j["kitti_t_rel_pct"].IsNull());
+  // A tighter window keeps fewer pairs; a zero-width one none at all (a clear error).
+  r = RunEval("traj" + files + " --max-diff 0.002 --json");
+  ASSERT_EQ(r.status, 0) << r.err;
+  EXPECT_LT(io::ParseJson(r.out)["num_poses"].AsInt(), 785);
+  ExpectCleanFailure(RunEval("traj" + files + " --max-diff 0"), "no matching timestamps");
+}
+
+TEST(DfoEval, DepthKnownValuesAndPairingErrors) {
+  const std::string dir = test::MakeTempDir("dfo_eval_depth");
+  // Two images: one predicted 1.2x too far everywhere, one exact; stored at 256 units per metre.
+  ImageF gt(16, 8, 1, 10.0f), far(16, 8, 1, 12.0f);
+  gt(0, 0) = 0.0f;  // no ground truth here
+  io::WriteDepthPng(dir + "/gt/a.png", gt, 256.0);
+  io::WriteDepthPng(dir + "/gt/b.png", gt, 256.0);
+  io::WriteDepthPng(dir + "/pred/a.png", far, 256.0);
+  io::WriteDepthPng(dir + "/pred/b.png", gt, 256.0);
+  io::WriteDepthPng(dir + "/pred/extra.png", gt, 256.0);  // ignored
+  CommandResult r = RunEval("depth --gt " + dir + "/gt --pred " + dir + "/pred --json");
+  ASSERT_EQ(r.status, 0) << r.err;
+  io::JsonValue j = io::ParseJson(r.out);
+  EXPECT_EQ(j["num_images"].AsInt(), 2);
+  EXPECT_EQ(j["num_pixels"].AsInt(), 2 * 127);
+  EXPECT_NEAR(j["abs_rel"].AsNumber(), 0.5 * 0.2, 1e-9);  // mean over images
+  EXPECT_NEAR(j["rmse"].AsNumber(), 0.5 * 2.0, 1e-9);
+  EXPECT_NEAR(j["a1"].AsNumber(), 1.0, 1e-12);
+
+  // Median scaling removes the 1.2 factor of image a.
+  r = RunEval("depth --gt " + dir + "/gt --pred " + dir + "/pred --median-scaling --json");
+  ASSERT_EQ(r.status, 0) << r.err;
+  EXPECT_NEAR(io::ParseJson(r.out)["abs_rel"].AsNumber(), 0.0, 1e-6);
+
+  std::filesystem::remove(dir + "/pred/b.png");
+  ExpectCleanFailure(RunEval("depth --gt " + dir + "/gt --pred " + dir + "/pred"),
+                     "no prediction for ground truth " + dir + "/gt/b.png");
+  io::WriteDepthPng(dir + "/pred/b.png", ImageF(8, 8, 1, 10.0f), 256.0);
+  const CommandResult size = RunEval("depth --gt " + dir + "/gt --pred " + dir + "/pred");
+  ExpectCleanFailure(size, dir + "/gt/b.png is 16x8");
+  EXPECT_NE(size.err.find(dir + "/pred/b.png is 8x8"), std::string::npos) << size.err;
+}
+
+}  // namespace
+}  // namespace dfo
