@@ -273,6 +273,26 @@ TEST(KittiErrors, MissingFolder) {
                    {"KITTI sequence folder not found", "/nonexistent/kitti/sequences/00"});
 }
 
+TEST(KittiErrors, MissingFiles) {
+  KittiFixture f = MakeKitti("kitti_no_times");
+  fs::remove(f.seq_dir + "/times.txt");
+  ExpectInputError([&] { OpenSequence(KittiOptions(f)); },
+                   {"KITTI times file not found", f.seq_dir + "/times.txt"});
+  f = MakeKitti("kitti_no_calib");
+  fs::remove(f.seq_dir + "/calib.txt");
+  ExpectInputError([&] { OpenSequence(KittiOptions(f)); },
+                   {"KITTI calibration file not found", f.seq_dir + "/calib.txt"});
+  f = MakeKitti("kitti_no_images");
+  fs::remove_all(f.seq_dir + "/image_0");
+  ExpectInputError([&] { OpenSequence(KittiOptions(f)); }, {"no image folder", "image_0"});
+  // Ground truth is optional (KITTI 11-21 have none).
+  f = MakeKitti("kitti_no_gt");
+  fs::remove(f.root + "/poses/07.txt");
+  const Sequence seq = OpenSequence(KittiOptions(f));
+  EXPECT_FALSE(seq.has_ground_truth());
+  EXPECT_TRUE(seq.GroundTruth().empty());
+}
+
 TEST(KittiErrors, CalibWithoutP0) {
   const KittiFixture f = MakeKitti("kitti_nop0");
   WriteText(f.seq_dir + "/calib.txt", ProjectionRow("P1", 50, 19.5, 14.5, -0.54));
@@ -503,6 +523,10 @@ TEST(TumErrors, RgbTimestampsGoingBackwards) {
 TEST(TumErrors, MissingFolderAndMissingImage) {
   ExpectInputError([] { OpenSequence(TumOptions("/nonexistent/tum")); },
                    {"TUM RGB-D sequence folder not found", "/nonexistent/tum"});
+  const std::string no_list = MakeTum("crafted", true);
+  fs::remove(no_list + "/rgb.txt");
+  ExpectInputError([&] { OpenSequence(TumOptions(no_list)); },
+                   {"TUM file list not found", no_list + "/rgb.txt"});
   const std::string root = MakeTum("crafted", true);
   fs::remove(root + "/rgb/101.000000.png");
   const Sequence seq = OpenSequence(TumOptions(root));
