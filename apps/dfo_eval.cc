@@ -188,10 +188,10 @@ int RunTraj(int argc, char** argv) {
     std::cout << kTrajHelp;
     return 0;
   }
-  const Options opt("traj", argc, argv,
-                    {"--gt", "--est", "--format", "--align", "--delta", "--delta-unit",
-                     "--max-diff", "--plot"},
-                    {"--json", "--all-pairs"});
+  const Options opt(
+      "traj", argc, argv,
+      {"--gt", "--est", "--format", "--align", "--delta", "--delta-unit", "--max-diff", "--plot"},
+      {"--json", "--all-pairs"});
   const std::string gt_path = opt.Required("--gt");
   const std::string est_path = opt.Required("--est");
   const std::string format_name = opt.Get("--format", "auto");
@@ -276,8 +276,8 @@ int RunTraj(int argc, char** argv) {
                               " m   (" + std::to_string(gt.size()) + " poses, " + align_name +
                               " alignment, scale " + Fixed(alignment.transform.scale, 4) + ")");
     std::string line2 = "RPE (" + Fixed(rpe_options.delta, 0) + " " + delta_unit + ") rmse " +
-                        Fixed(rpe.translation.rmse, 4) + " m, " +
-                        Fixed(rpe.rotation_deg.rmse, 4) + " deg";
+                        Fixed(rpe.translation.rmse, 4) + " m, " + Fixed(rpe.rotation_deg.rmse, 4) +
+                        " deg";
     if (kitti.num_segments > 0) {
       line2 += "   KITTI t_rel " + Fixed(kitti.t_rel_pct, 2) + " %, r_rel " +
                Fixed(kitti.r_rel_deg_per_100m, 3) + " deg/100m";
@@ -326,12 +326,10 @@ int RunTraj(int argc, char** argv) {
             << "ATE [m]       rmse " << Fixed(ate.stats.rmse) << "  mean " << Fixed(ate.stats.mean)
             << "  median " << Fixed(ate.stats.median) << "  std " << Fixed(ate.stats.std)
             << "  min " << Fixed(ate.stats.min) << "  max " << Fixed(ate.stats.max) << "\n";
-  std::cout << "RPE           delta " << Fixed(rpe_options.delta, rpe_options.delta_unit ==
-                                                                    DeltaUnit::kFrames
-                                                                ? 0
-                                                                : 3)
-            << " " << delta_unit << (rpe_options.all_pairs ? ", all pairs" : ", consecutive pairs")
-            << ", " << rpe.pairs.size() << " pairs\n";
+  std::cout << "RPE           delta "
+            << Fixed(rpe_options.delta, rpe_options.delta_unit == DeltaUnit::kFrames ? 0 : 3) << " "
+            << delta_unit << (rpe_options.all_pairs ? ", all pairs" : ", consecutive pairs") << ", "
+            << rpe.pairs.size() << " pairs\n";
   if (rpe.pairs.empty()) {
     std::cout << "              not computed: no pose pair at this delta\n";
   } else {
@@ -386,9 +384,10 @@ int RunDepth(int argc, char** argv) {
 
   namespace fs = std::filesystem;
   std::error_code ec;
-  for (const auto& [dir, what] : {std::make_pair(gt_dir, "ground-truth"),
-                                  std::make_pair(pred_dir, "prediction")}) {
-    if (!fs::is_directory(dir, ec)) throw InputError(std::string(what) + " folder not found: " + dir);
+  for (const auto& [dir, what] :
+       {std::make_pair(gt_dir, "ground-truth"), std::make_pair(pred_dir, "prediction")}) {
+    if (!fs::is_directory(dir, ec))
+      throw InputError(std::string(what) + " folder not found: " + dir);
   }
   std::vector<std::string> names;
   for (const auto& entry : fs::directory_iterator(gt_dir)) {
@@ -411,8 +410,8 @@ int RunDepth(int argc, char** argv) {
     if (gt.width() != pred.width() || gt.height() != pred.height()) {
       throw InputError("size mismatch: ground truth " + gt_path + " is " +
                        std::to_string(gt.width()) + "x" + std::to_string(gt.height()) +
-                       ", prediction " + pred_path + " is " + std::to_string(pred.width()) +
-                       "x" + std::to_string(pred.height()) + "; expected equal sizes");
+                       ", prediction " + pred_path + " is " + std::to_string(pred.width()) + "x" +
+                       std::to_string(pred.height()) + "; expected equal sizes");
     }
     per_image.push_back(ComputeDepthErrors(gt, pred, metrics));
   }
@@ -456,7 +455,8 @@ int RunDepth(int argc, char** argv) {
 
 int main(int argc, char** argv) {
   if (argc < 2) {
-    std::cerr << "dfo_eval: error: no command given, expected traj or depth (see dfo_eval --help)\n";
+    std::cerr
+        << "dfo_eval: error: no command given, expected traj or depth (see dfo_eval --help)\n";
     return 2;
   }
   const std::string command = argv[1];

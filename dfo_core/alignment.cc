@@ -1,11 +1,10 @@
 #include "dfo_core/alignment.h"
 
+#include <Eigen/SVD>
 #include <algorithm>
 #include <cstdlib>
 #include <limits>
 #include <sstream>
-
-#include <Eigen/SVD>
 
 #include "dfo_core/error.h"
 
@@ -45,8 +44,8 @@ Eigen::Matrix4d SimilarityTransform::Matrix() const {
   return m;
 }
 
-SimilarityTransform UmeyamaAlignment(const Eigen::Matrix3Xd& source,
-                                     const Eigen::Matrix3Xd& target, bool with_scale) {
+SimilarityTransform UmeyamaAlignment(const Eigen::Matrix3Xd& source, const Eigen::Matrix3Xd& target,
+                                     bool with_scale) {
   if (source.cols() != target.cols()) {
     std::ostringstream msg;
     msg << "Umeyama alignment needs equally many points, got " << source.cols() << " and "
@@ -82,9 +81,9 @@ SimilarityTransform UmeyamaAlignment(const Eigen::Matrix3Xd& source,
   if (svd.matrixU().determinant() * svd.matrixV().determinant() < 0.0) S(2, 2) = -1.0;
 
   SimilarityTransform out;
-  out.rotation = svd.matrixU() * S * svd.matrixV().transpose();  // eq. 40
+  out.rotation = svd.matrixU() * S * svd.matrixV().transpose();           // eq. 40
   out.scale = with_scale ? (d.asDiagonal() * S).trace() / sigma_x : 1.0;  // eq. 42
-  out.translation = mean_y - out.scale * (out.rotation * mean_x);        // eq. 41
+  out.translation = mean_y - out.scale * (out.rotation * mean_x);         // eq. 41
   return out;
 }
 
@@ -95,8 +94,7 @@ void TrajectoryAlignmentOptions::Check() const {
   }
 }
 
-Trajectory TransformTrajectory(const Trajectory& trajectory,
-                               const SimilarityTransform& transform) {
+Trajectory TransformTrajectory(const Trajectory& trajectory, const SimilarityTransform& transform) {
   Trajectory out;
   out.poses().reserve(trajectory.size());
   for (const auto& p : trajectory) out.Add(p.timestamp_ns, transform.Apply(p.world_from_cam));

@@ -6,12 +6,11 @@
 #ifndef DFO_CORE_ALIGNMENT_H_
 #define DFO_CORE_ALIGNMENT_H_
 
+#include <Eigen/Core>
 #include <cstdint>
 #include <string>
 #include <utility>
 #include <vector>
-
-#include <Eigen/Core>
 
 #include "dfo_core/lie.h"
 #include "dfo_core/trajectory.h"
@@ -57,8 +56,8 @@ struct SimilarityTransform {
 // c = trace(D S) / sigma_x^2, t = mean_y - c R mean_x.
 // Throws InputError when the sizes differ, fewer than 2 points are given, or the covariance has
 // rank < 2 (e.g. all source points identical, as evo's "Degenerate covariance rank").
-SimilarityTransform UmeyamaAlignment(const Eigen::Matrix3Xd& source,
-                                     const Eigen::Matrix3Xd& target, bool with_scale);
+SimilarityTransform UmeyamaAlignment(const Eigen::Matrix3Xd& source, const Eigen::Matrix3Xd& target,
+                                     bool with_scale);
 
 // Options of AlignTrajectory.
 struct TrajectoryAlignmentOptions {

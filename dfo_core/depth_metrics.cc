@@ -40,13 +40,12 @@ DepthErrors ComputeDepthErrors(const ImageF& ground_truth, const ImageF& predict
   options.Check();
   if (ground_truth.width() != prediction.width() || ground_truth.height() != prediction.height() ||
       ground_truth.channels() != 1 || prediction.channels() != 1) {
-    throw InputError("depth maps differ in size: ground truth " +
-                     std::to_string(ground_truth.width()) + "x" +
-                     std::to_string(ground_truth.height()) + "x" +
-                     std::to_string(ground_truth.channels()) + ", prediction " +
-                     std::to_string(prediction.width()) + "x" +
-                     std::to_string(prediction.height()) + "x" +
-                     std::to_string(prediction.channels()) + " (expected equal, 1 channel)");
+    throw InputError(
+        "depth maps differ in size: ground truth " + std::to_string(ground_truth.width()) + "x" +
+        std::to_string(ground_truth.height()) + "x" + std::to_string(ground_truth.channels()) +
+        ", prediction " + std::to_string(prediction.width()) + "x" +
+        std::to_string(prediction.height()) + "x" + std::to_string(prediction.channels()) +
+        " (expected equal, 1 channel)");
   }
   // Monodepth2 evaluate_depth.py: mask = gt > MIN_DEPTH & gt < MAX_DEPTH.
   std::vector<double> gt, pred;

@@ -28,15 +28,15 @@ struct DepthMetricsOptions {
 
 // Errors of one image, or the average over several.
 struct DepthErrors {
-  double abs_rel = 0.0;   // mean |gt - pred| / gt
-  double sq_rel = 0.0;    // mean (gt - pred)^2 / gt
-  double rmse = 0.0;      // sqrt(mean (gt - pred)^2), metres
-  double rmse_log = 0.0;  // sqrt(mean (ln gt - ln pred)^2)
-  double a1 = 0.0;        // fraction with max(gt/pred, pred/gt) < 1.25
-  double a2 = 0.0;        // ... < 1.25^2
-  double a3 = 0.0;        // ... < 1.25^3
-  size_t num_pixels = 0;  // valid pixels used (summed over images for an average)
-  size_t num_images = 0;  // 1 for one image with valid pixels, 0 for none; images averaged
+  double abs_rel = 0.0;       // mean |gt - pred| / gt
+  double sq_rel = 0.0;        // mean (gt - pred)^2 / gt
+  double rmse = 0.0;          // sqrt(mean (gt - pred)^2), metres
+  double rmse_log = 0.0;      // sqrt(mean (ln gt - ln pred)^2)
+  double a1 = 0.0;            // fraction with max(gt/pred, pred/gt) < 1.25
+  double a2 = 0.0;            // ... < 1.25^2
+  double a3 = 0.0;            // ... < 1.25^3
+  size_t num_pixels = 0;      // valid pixels used (summed over images for an average)
+  size_t num_images = 0;      // 1 for one image with valid pixels, 0 for none; images averaged
   double median_scale = 1.0;  // the median-scaling ratio used (mean over images for an average)
 };
 

@@ -81,9 +81,9 @@ AteResult ComputeAte(const Trajectory& ground_truth, const Trajectory& estimate)
   result.errors.reserve(estimate.size());
   // evo APE translation_part: E = positions_est - positions_ref, error = |E_i|.
   for (size_t i = 0; i < estimate.size(); ++i) {
-    result.errors.push_back((estimate[i].world_from_cam.translation() -
-                             ground_truth[i].world_from_cam.translation())
-                                .norm());
+    result.errors.push_back(
+        (estimate[i].world_from_cam.translation() - ground_truth[i].world_from_cam.translation())
+            .norm());
   }
   result.stats = ComputeStatistics(result.errors);
   return result;
@@ -174,8 +174,8 @@ RpeResult ComputeRpe(const Trajectory& ground_truth, const Trajectory& estimate,
   const Trajectory& pair_source = options.pairs_from_reference ? ground_truth : estimate;
   RpeResult result;
   if (options.delta_unit == DeltaUnit::kFrames) {
-    result.pairs = PairsByIndex(pair_source.size(), static_cast<size_t>(options.delta),
-                                options.all_pairs);
+    result.pairs =
+        PairsByIndex(pair_source.size(), static_cast<size_t>(options.delta), options.all_pairs);
   } else {
     result.pairs = PairsByPath(pair_source, options.delta, options.delta * options.rel_delta_tol,
                                options.all_pairs);
@@ -184,8 +184,7 @@ RpeResult ComputeRpe(const Trajectory& ground_truth, const Trajectory& estimate,
   result.rotation_errors_deg.reserve(result.pairs.size());
   for (const auto& [i, j] : result.pairs) {
     // evo rpe_base: Q_rel = Q_i^-1 Q_j, P_rel = P_i^-1 P_j, E = Q_rel^-1 P_rel.
-    const SE3d q_rel =
-        ground_truth[i].world_from_cam.Inverse() * ground_truth[j].world_from_cam;
+    const SE3d q_rel = ground_truth[i].world_from_cam.Inverse() * ground_truth[j].world_from_cam;
     const SE3d p_rel = estimate[i].world_from_cam.Inverse() * estimate[j].world_from_cam;
     const SE3d e = q_rel.Inverse() * p_rel;
     result.translation_errors.push_back(e.translation().norm());
@@ -200,8 +199,8 @@ void KittiOdometryOptions::Check() const {
   if (lengths_m.empty()) throw ConfigError("kitti.lengths_m is empty, expected >= 1 length");
   for (size_t i = 0; i < lengths_m.size(); ++i) {
     if (!(lengths_m[i] > 0.0)) {
-      throw ConfigError("kitti.lengths_m[" + std::to_string(i) + "] = " +
-                        std::to_string(lengths_m[i]) + " violates > 0");
+      throw ConfigError("kitti.lengths_m[" + std::to_string(i) +
+                        "] = " + std::to_string(lengths_m[i]) + " violates > 0");
     }
   }
   if (step_frames <= 0) {
@@ -229,8 +228,8 @@ KittiOdometryResult ComputeKittiOdometryErrors(const Trajectory& ground_truth,
       const auto it = std::upper_bound(dist.begin() + first, dist.end(), dist[first] + len);
       if (it == dist.end()) continue;
       const size_t last = static_cast<size_t>(it - dist.begin());
-      const SE3d delta_gt = ground_truth[first].world_from_cam.Inverse() *
-                            ground_truth[last].world_from_cam;
+      const SE3d delta_gt =
+          ground_truth[first].world_from_cam.Inverse() * ground_truth[last].world_from_cam;
       const SE3d delta_est =
           estimate[first].world_from_cam.Inverse() * estimate[last].world_from_cam;
       const SE3d error = delta_est.Inverse() * delta_gt;

@@ -54,9 +54,10 @@ enum class DeltaUnit {
 
 // Options of ComputeRpe; defaults are evo_rpe's.
 struct RpeOptions {
-  double delta = 1.0;                      // > 0; a whole number for kFrames
+  double delta = 1.0;  // > 0; a whole number for kFrames
   DeltaUnit delta_unit = DeltaUnit::kFrames;
-  // Use every pair (i, i + delta) instead of consecutive pairs (0, d), (d, 2d), ... (evo --all_pairs).
+  // Use every pair (i, i + delta) instead of consecutive pairs (0, d), (d, 2d), ... (evo
+  // --all_pairs).
   bool all_pairs = false;
   // Relative tolerance on a metre delta in all-pairs mode (evo's rel_delta_tol), >= 0.
   double rel_delta_tol = 0.1;
@@ -103,15 +104,15 @@ struct KittiOdometryOptions {
 struct KittiLengthErrors {
   double length_m = 0.0;
   size_t num_segments = 0;
-  double t_rel_pct = 0.0;              // mean translation error / length, percent; NaN if none
-  double r_rel_deg_per_100m = 0.0;     // mean rotation error / length, deg per 100 m; NaN if none
+  double t_rel_pct = 0.0;           // mean translation error / length, percent; NaN if none
+  double r_rel_deg_per_100m = 0.0;  // mean rotation error / length, deg per 100 m; NaN if none
 };
 
 // KITTI odometry benchmark errors.
 struct KittiOdometryResult {
-  size_t num_segments = 0;           // segments over all lengths and start frames
-  double t_rel_pct = 0.0;            // average of t_err / length over all segments, x 100; NaN if none
-  double r_rel_deg_per_100m = 0.0;   // average of r_err / length (rad/m) x 180/pi x 100; NaN if none
+  size_t num_segments = 0;  // segments over all lengths and start frames
+  double t_rel_pct = 0.0;   // average of t_err / length over all segments, x 100; NaN if none
+  double r_rel_deg_per_100m = 0.0;  // average of r_err / length (rad/m) x 180/pi x 100; NaN if none
   std::vector<KittiLengthErrors> per_length;  // one entry per options.lengths_m
 };
 

@@ -65,7 +65,9 @@ std::string JsonQuote(const std::string& s) {
 }
 
 JsonValue::JsonValue(int64_t value)
-    : type_(Type::kNumber), number_(static_cast<double>(value)), is_integer_(true),
+    : type_(Type::kNumber),
+      number_(static_cast<double>(value)),
+      is_integer_(true),
       integer_(value) {}
 
 JsonValue::JsonValue(uint64_t value) : type_(Type::kNumber), number_(static_cast<double>(value)) {

@@ -26,11 +26,11 @@ class JsonValue {
   JsonValue(std::nullptr_t) {}  // NOLINT(runtime/explicit): JsonValue v = nullptr;
   JsonValue(bool value) : type_(Type::kBool), bool_(value) {}  // NOLINT
   // Numbers. A non-finite double is stored as is and written as null.
-  JsonValue(double value) : type_(Type::kNumber), number_(value) {}  // NOLINT
-  JsonValue(int value) : JsonValue(static_cast<int64_t>(value)) {}   // NOLINT
-  JsonValue(int64_t value);                                          // NOLINT
-  JsonValue(uint64_t value);                                         // NOLINT
-  JsonValue(const char* value) : type_(Type::kString), string_(value) {}      // NOLINT
+  JsonValue(double value) : type_(Type::kNumber), number_(value) {}                  // NOLINT
+  JsonValue(int value) : JsonValue(static_cast<int64_t>(value)) {}                   // NOLINT
+  JsonValue(int64_t value);                                                          // NOLINT
+  JsonValue(uint64_t value);                                                         // NOLINT
+  JsonValue(const char* value) : type_(Type::kString), string_(value) {}             // NOLINT
   JsonValue(std::string value) : type_(Type::kString), string_(std::move(value)) {}  // NOLINT
 
   // An empty array / object.
@@ -56,7 +56,7 @@ class JsonValue {
   JsonValue& Push(JsonValue value);
   size_t size() const;  // elements of an array / members of an object, 0 otherwise
   const JsonValue& operator[](size_t index) const;  // throws InputError when out of range
-  const JsonValue& operator[](int index) const {     // so that v[0] is not ambiguous
+  const JsonValue& operator[](int index) const {    // so that v[0] is not ambiguous
     return (*this)[static_cast<size_t>(index)];
   }
 

@@ -6,7 +6,6 @@
 #include <cstdio>
 #include <filesystem>
 #include <limits>
-
 #include <opencv2/core.hpp>
 #include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
@@ -21,7 +20,7 @@ const cv::Scalar kBlack(0, 0, 0);
 const cv::Scalar kGrid(225, 225, 225);
 const cv::Scalar kAxisText(60, 60, 60);
 const cv::Scalar kGroundTruth(70, 70, 70);
-const cv::Scalar kStart(40, 160, 40);  // BGR green
+const cv::Scalar kStart(40, 160, 40);          // BGR green
 const cv::Scalar kPlainEstimate(200, 90, 30);  // BGR blue, when no errors are given
 constexpr int kFont = cv::FONT_HERSHEY_SIMPLEX;
 
@@ -168,8 +167,8 @@ void WriteTrajectoryPlot(const std::string& path, const Trajectory& ground_truth
   const std::string h_label = std::string(kAxisNames[h_axis]) + " [m]";
   const std::string v_label = std::string(kAxisNames[v_axis]) + " [m]";
   Text(img, h_label,
-       cv::Point(area.x + area.width / 2 - TextSize(h_label, 0.6).width / 2, area.br().y + 48),
-       0.6, kBlack);
+       cv::Point(area.x + area.width / 2 - TextSize(h_label, 0.6).width / 2, area.br().y + 48), 0.6,
+       kBlack);
   Text(img, v_label, cv::Point(12, area.y - 8), 0.6, kBlack);
 
   // Error colour range.
@@ -181,16 +180,16 @@ void WriteTrajectoryPlot(const std::string& path, const Trajectory& ground_truth
   }
   const std::array<cv::Vec3b, 256> table = ColourTable();
   const auto colour_of = [&](double e) {
-    const int i = std::clamp(static_cast<int>(std::lround(255.0 * (e - e_min) / (e_max - e_min))),
-                             0, 255);
+    const int i =
+        std::clamp(static_cast<int>(std::lround(255.0 * (e - e_min) / (e_max - e_min))), 0, 255);
     const cv::Vec3b c = table[i];
     return cv::Scalar(c[0], c[1], c[2]);
   };
 
   // Paths: ground truth first, the estimate on top.
   for (size_t i = 1; i < gt.size(); ++i) {
-    cv::line(img, fixed(to_pixel(gt[i - 1])), fixed(to_pixel(gt[i])), kGroundTruth, 2,
-             cv::LINE_AA, kShift);
+    cv::line(img, fixed(to_pixel(gt[i - 1])), fixed(to_pixel(gt[i])), kGroundTruth, 2, cv::LINE_AA,
+             kShift);
   }
   for (size_t i = 1; i < est.size(); ++i) {
     const cv::Scalar c = coloured ? colour_of(0.5 * (errors[i - 1] + errors[i])) : kPlainEstimate;
@@ -224,8 +223,8 @@ void WriteTrajectoryPlot(const std::string& path, const Trajectory& ground_truth
     const cv::Rect bar(area.br().x + 30, area.y + 20, 22, area.height - 40);
     for (int y = 0; y < bar.height; ++y) {
       const double e = e_max - (e_max - e_min) * y / std::max(1, bar.height - 1);
-      cv::line(img, cv::Point(bar.x, bar.y + y), cv::Point(bar.br().x - 1, bar.y + y),
-               colour_of(e), 1);
+      cv::line(img, cv::Point(bar.x, bar.y + y), cv::Point(bar.br().x - 1, bar.y + y), colour_of(e),
+               1);
     }
     cv::rectangle(img, bar, kAxisText, 1);
     Text(img, options.error_label, cv::Point(bar.x - 10, bar.y - 16), 0.5, kBlack);

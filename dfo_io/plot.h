@@ -11,8 +11,8 @@ namespace dfo::io {
 
 // Options of WriteTrajectoryPlot.
 struct TrajectoryPlotOptions {
-  int width = 1200;   // image width in pixels, >= 400
-  int height = 900;   // image height in pixels, >= 300
+  int width = 1200;                            // image width in pixels, >= 400
+  int height = 900;                            // image height in pixels, >= 300
   std::string title = "Trajectory, top view";  // first line at the top
   // Further lines printed under the title (figures such as "ATE rmse 1.303 m, se3 alignment").
   std::vector<std::string> text_lines;

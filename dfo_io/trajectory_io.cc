@@ -1,5 +1,6 @@
 #include "dfo_io/trajectory_io.h"
 
+#include <Eigen/SVD>
 #include <cctype>
 #include <cerrno>
 #include <cmath>
@@ -8,8 +9,6 @@
 #include <filesystem>
 #include <fstream>
 #include <sstream>
-
-#include <Eigen/SVD>
 
 #include "dfo_core/error.h"
 #include "dfo_io/json.h"
@@ -160,8 +159,7 @@ std::string FormatNsAsSeconds(int64_t ns) {
   return s;
 }
 
-Trajectory ReadKittiTrajectory(const std::string& path,
-                               const std::vector<int64_t>* timestamps_ns) {
+Trajectory ReadKittiTrajectory(const std::string& path, const std::vector<int64_t>* timestamps_ns) {
   std::ifstream in = OpenForReading(path, "KITTI trajectory");
   Trajectory trajectory;
   std::string line;
@@ -225,9 +223,8 @@ Trajectory ReadTumTrajectory(const std::string& path) {
     }
     if (!trajectory.empty() && stamp <= trajectory.poses().back().timestamp_ns) {
       throw InputError(Where(path, line_number) + "timestamp " + tokens[0] +
-                       " does not increase (previous pose, line " +
-                       std::to_string(previous_line) + ", has " +
-                       FormatNsAsSeconds(trajectory.poses().back().timestamp_ns) +
+                       " does not increase (previous pose, line " + std::to_string(previous_line) +
+                       ", has " + FormatNsAsSeconds(trajectory.poses().back().timestamp_ns) +
                        "), expected strictly increasing timestamps");
     }
     previous_line = line_number;

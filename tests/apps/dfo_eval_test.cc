@@ -1,5 +1,6 @@
 // Runs the real dfo_eval executable (DFO_EVAL_EXE) and checks its output, exit status and error
 // lines.
+#include <gtest/gtest.h>
 #include <sys/wait.h>
 
 #include <cmath>
@@ -8,8 +9,6 @@
 #include <fstream>
 #include <sstream>
 #include <string>
-
-#include <gtest/gtest.h>
 
 #include "dfo_core/trajectory.h"
 #include "dfo_io/image_io.h"
@@ -55,10 +54,12 @@ void ExpectCleanFailure(const CommandResult& r, const std::string& fragment) {
   EXPECT_EQ(r.err.find('\n'), r.err.size() - 1) << "more than one line: " << r.err;
 }
 
-const char* kJsonKeys[] = {"num_poses",       "scale",          "ate_rmse",
-                           "ate_mean",        "ate_median",     "ate_max",
-                           "rpe_trans_rmse",  "rpe_rot_rmse_deg", "kitti_t_rel_pct",
-                           "kitti_r_rel_deg_per_100m", "snippet_ate_mean", "snippet_ate_std"};
+const char* kJsonKeys[] = {"num_poses",        "scale",
+                           "ate_rmse",         "ate_mean",
+                           "ate_median",       "ate_max",
+                           "rpe_trans_rmse",   "rpe_rot_rmse_deg",
+                           "kitti_t_rel_pct",  "kitti_r_rel_deg_per_100m",
+                           "snippet_ate_mean", "snippet_ate_std"};
 
 // A curving trajectory written as KITTI, and the same scaled by 2 about the origin.
 void WriteScaledPair(const std::string& dir, int n) {
@@ -108,11 +109,13 @@ TEST(DfoEval, KittiCountMismatchAndBadLinesAreClearErrors) {
   Trajectory shorter = io::ReadKittiTrajectory(dir + "/gt.txt");
   shorter.poses().pop_back();
   io::WriteKittiTrajectory(dir + "/short.txt", shorter);
-  ExpectCleanFailure(RunEval("traj --format kitti --gt " + dir + "/gt.txt --est " + dir + "/short.txt"),
-                     "has 20 poses and " + dir + "/short.txt has 19");
+  ExpectCleanFailure(
+      RunEval("traj --format kitti --gt " + dir + "/gt.txt --est " + dir + "/short.txt"),
+      "has 20 poses and " + dir + "/short.txt has 19");
   std::ofstream(dir + "/bad.txt") << "1 0 0 0 0 1 0 0 0 0 1 0\n1 0 0 0 0 1 0 0 0 0 1\n";
-  ExpectCleanFailure(RunEval("traj --format kitti --gt " + dir + "/bad.txt --est " + dir + "/gt.txt"),
-                     dir + "/bad.txt:2: pose line with 11 numbers, expected 12");
+  ExpectCleanFailure(
+      RunEval("traj --format kitti --gt " + dir + "/bad.txt --est " + dir + "/gt.txt"),
+      dir + "/bad.txt:2: pose line with 11 numbers, expected 12");
 }
 
 TEST(DfoEval, Sim3AlignmentRemovesScaleOfSyntheticPair) {
@@ -137,7 +140,7 @@ TEST(DfoEval, Sim3AlignmentRemovesScaleOfSyntheticPair) {
   EXPECT_EQ(j["scale"].AsNumber(), 1.0);
   EXPECT_GT(j["ate_rmse"].AsNumber(), 1.0);
   EXPECT_NEAR(j["rpe_trans_rmse"].AsNumber(), 1.0, 0.01);  // 2 m steps vs 1 m steps
-  EXPECT_LT(j["snippet_ate_mean"].AsNumber(), 1e-9);      // snippet ATE fits its own scale
+  EXPECT_LT(j["snippet_ate_mean"].AsNumber(), 1e-9);       // snippet ATE fits its own scale
 
   // Text mode names the alignment and the figures; --plot writes a PNG.
   r = RunEval("traj" + files + " --plot " + dir + "/plots/top.png");
@@ -154,7 +157,7 @@ TEST(DfoEval, KittiReferenceAnswersThroughTheExecutable) {
   DFO_SKIP_WITHOUT_SHARED_DATA();
   const std::string dir = test::SharedDataDir() + "/reference_trajectories";
   CommandResult r = RunEval("traj --gt " + dir + "/KITTI_00_gt.txt --est " + dir +
-                        "/KITTI_00_ORB.txt --format kitti --align se3 --json");
+                            "/KITTI_00_ORB.txt --format kitti --align se3 --json");
   ASSERT_EQ(r.status, 0) << r.err;
   io::JsonValue j = io::ParseJson(r.out, "dfo_eval stdout");
   EXPECT_EQ(j["num_poses"].AsInt(), 4541);
@@ -170,7 +173,7 @@ TEST(DfoEval, KittiReferenceAnswersThroughTheExecutable) {
   EXPECT_TRUE(j["snippet_ate_mean"].IsNumber());
 
   r = RunEval("traj --gt " + dir + "/KITTI_00_gt.txt --est " + dir +
-          "/KITTI_00_SPTAM.txt --align se3 --json");  // format detected
+              "/KITTI_00_SPTAM.txt --align se3 --json");  // format detected
   ASSERT_EQ(r.status, 0) << r.err;
   j = io::ParseJson(r.out, "dfo_eval stdout");
   EXPECT_NEAR(j["ate_rmse"].AsNumber(), 3.738488, 1e-4);

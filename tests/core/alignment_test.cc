@@ -1,9 +1,9 @@
 #include "dfo_core/alignment.h"
 
+#include <gtest/gtest.h>
+
 #include <cmath>
 #include <random>
-
-#include <gtest/gtest.h>
 
 #include "dfo_core/error.h"
 #include "dfo_core/metrics.h"
@@ -89,8 +89,7 @@ TEST(Alignment, UmeyamaRejectsDegenerateInput) {
   Eigen::Matrix3Xd same(3, 10);
   same.colwise() = Eigen::Vector3d(1, 2, 3);
   EXPECT_THROW(UmeyamaAlignment(same, same, true), InputError);
-  EXPECT_THROW(UmeyamaAlignment(Eigen::Matrix3Xd(3, 4), Eigen::Matrix3Xd(3, 5), true),
-               InputError);
+  EXPECT_THROW(UmeyamaAlignment(Eigen::Matrix3Xd(3, 4), Eigen::Matrix3Xd(3, 5), true), InputError);
   EXPECT_THROW(UmeyamaAlignment(Eigen::Matrix3Xd::Zero(3, 1), Eigen::Matrix3Xd::Zero(3, 1), true),
                InputError);
 }
@@ -116,9 +115,9 @@ TEST(Alignment, KnownSim3OnTrajectoryIsRecoveredWithZeroAte) {
   EXPECT_LT(ate.stats.max, 1e-8);
   // Orientations come back too (R_out = R R_in).
   for (size_t i = 0; i < gt.size(); ++i) {
-    EXPECT_LT(((gt[i].world_from_cam.Inverse() * a.aligned_estimate[i].world_from_cam).so3())
-                  .Angle(),
-              1e-9);
+    EXPECT_LT(
+        ((gt[i].world_from_cam.Inverse() * a.aligned_estimate[i].world_from_cam).so3()).Angle(),
+        1e-9);
     EXPECT_EQ(a.aligned_estimate[i].timestamp_ns, gt[i].timestamp_ns);
   }
   // SE3 alignment cannot absorb the scale: clearly non-zero ATE, scale reported as 1.

@@ -1,8 +1,8 @@
 #include "dfo_core/depth_metrics.h"
 
-#include <cmath>
-
 #include <gtest/gtest.h>
+
+#include <cmath>
 
 #include "dfo_core/error.h"
 
@@ -73,8 +73,8 @@ TEST(DepthMetrics, MedianScalingRemovesAGlobalScaleAndClampsPredictions) {
 
 TEST(DepthMetrics, AverageIsOverImagesNotPixels) {
   ImageF gt_small(1, 1, 1, 10.0f), pred_small(1, 1, 1, 12.0f);  // abs_rel 0.2, one pixel
-  ImageF gt_big(10, 10, 1, 10.0f);                               // abs_rel 0, 100 pixels
-  ImageF empty_gt(3, 3, 1, 0.0f);                                // no valid pixel: skipped
+  ImageF gt_big(10, 10, 1, 10.0f);                              // abs_rel 0, 100 pixels
+  ImageF empty_gt(3, 3, 1, 0.0f);                               // no valid pixel: skipped
   const std::vector<DepthErrors> per_image = {ComputeDepthErrors(gt_small, pred_small),
                                               ComputeDepthErrors(gt_big, gt_big),
                                               ComputeDepthErrors(empty_gt, empty_gt)};

@@ -1,9 +1,9 @@
 #include "dfo_core/metrics.h"
 
+#include <gtest/gtest.h>
+
 #include <cmath>
 #include <random>
-
-#include <gtest/gtest.h>
 
 #include "dfo_core/alignment.h"
 #include "dfo_core/error.h"
@@ -42,7 +42,7 @@ TEST(Statistics, MatchNumpyDefinitions) {
   EXPECT_EQ(s.count, 4u);
   EXPECT_DOUBLE_EQ(s.rmse, std::sqrt(7.5));
   EXPECT_DOUBLE_EQ(s.mean, 2.5);
-  EXPECT_DOUBLE_EQ(s.median, 2.5);  // mean of the two middle values
+  EXPECT_DOUBLE_EQ(s.median, 2.5);           // mean of the two middle values
   EXPECT_DOUBLE_EQ(s.std, std::sqrt(1.25));  // population std
   EXPECT_DOUBLE_EQ(s.min, 1.0);
   EXPECT_DOUBLE_EQ(s.max, 4.0);
@@ -74,8 +74,8 @@ TEST(Rpe, KnownPerStepErrorForFrameDelta) {
   const Trajectory gt = StraightLine(n, 1.0);
   Trajectory est;
   for (int i = 0; i < n; ++i) {
-    est.Add(gt[i].timestamp_ns, SE3d(SO3d::Exp(Eigen::Vector3d(0, 0, i * kDegToRad)),
-                                     Eigen::Vector3d(0, 0, 1.1 * i)));
+    est.Add(gt[i].timestamp_ns,
+            SE3d(SO3d::Exp(Eigen::Vector3d(0, 0, i * kDegToRad)), Eigen::Vector3d(0, 0, 1.1 * i)));
   }
   RpeResult rpe = ComputeRpe(gt, est);
   ASSERT_EQ(rpe.pairs.size(), 20u);
@@ -159,8 +159,8 @@ TEST(KittiOdometry, ConstantHeadingDriftGivesKnownRotationError) {
   const Trajectory gt = StraightLine(17000, step);  // 850 m
   Trajectory est;
   for (size_t i = 0; i < gt.size(); ++i) {
-    est.Add(gt[i].timestamp_ns, SE3d(SO3d::Exp(Eigen::Vector3d(0, 0, theta * i)),
-                                     gt[i].world_from_cam.translation()));
+    est.Add(gt[i].timestamp_ns,
+            SE3d(SO3d::Exp(Eigen::Vector3d(0, 0, theta * i)), gt[i].world_from_cam.translation()));
   }
   const KittiOdometryResult r = ComputeKittiOdometryErrors(gt, est);
   EXPECT_NEAR(r.r_rel_deg_per_100m, 1.0, 0.001);

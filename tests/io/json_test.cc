@@ -1,11 +1,11 @@
 #include "dfo_io/json.h"
 
+#include <gtest/gtest.h>
+
 #include <cmath>
 #include <cstdlib>
 #include <limits>
 #include <random>
-
-#include <gtest/gtest.h>
 
 #include "dfo_core/error.h"
 
@@ -73,7 +73,8 @@ TEST(Json, ParsesWhatItWritesAndStandardText) {
   EXPECT_TRUE(back["n"].IsNull());
   EXPECT_FALSE(back["nested"][0]["k"].AsBool());
 
-  const JsonValue w = ParseJson(" {\"a\" : [1, 2.5e3, -0, true, null, \"\\u00e9\\/\\ud83d\\ude00\"]} ");
+  const JsonValue w =
+      ParseJson(" {\"a\" : [1, 2.5e3, -0, true, null, \"\\u00e9\\/\\ud83d\\ude00\"]} ");
   ASSERT_EQ(w["a"].size(), 6u);
   EXPECT_EQ(w["a"][1].AsNumber(), 2500.0);
   EXPECT_EQ(w["a"][5].AsString(), "\xc3\xa9/\xf0\x9f\x98\x80");

@@ -1,10 +1,10 @@
 #include "dfo_io/trajectory_io.h"
 
+#include <gtest/gtest.h>
+
 #include <cmath>
 #include <fstream>
 #include <random>
-
-#include <gtest/gtest.h>
 
 #include "dfo_core/alignment.h"
 #include "dfo_core/error.h"
@@ -45,8 +45,7 @@ TEST(TrajectoryFormat, ParsesNames) {
 TEST(KittiReader, ReadsPosesAndDefaultOrGivenTimestamps) {
   const std::string dir = test::MakeTempDir("kitti_read");
   const std::string path = WriteText(
-      dir, "poses.txt",
-      std::string(kIdentity) + "\n# comment\n0 -1 0 1.5  1 0 0 -2  0 0 1 3.25\n");
+      dir, "poses.txt", std::string(kIdentity) + "\n# comment\n0 -1 0 1.5  1 0 0 -2  0 0 1 3.25\n");
   const Trajectory t = ReadKittiTrajectory(path);
   ASSERT_EQ(t.size(), 2u);
   EXPECT_EQ(t[0].timestamp_ns, 0);
@@ -64,8 +63,8 @@ TEST(KittiReader, EveryErrorNamesFileAndLine) {
   ExpectInputError([&] { ReadKittiTrajectory(dir + "/missing.txt"); }, dir + "/missing.txt",
                    {"not found"});
   std::string p = WriteText(dir, "count.txt", std::string(kIdentity) + "1 0 0 0 0 1 0 0 0 0 1\n");
-  ExpectInputError([&] { ReadKittiTrajectory(p); }, p + ":2:",
-                   {"pose line with 11 numbers, expected 12"});
+  ExpectInputError([&] { ReadKittiTrajectory(p); },
+                   p + ":2:", {"pose line with 11 numbers, expected 12"});
   p = WriteText(dir, "token.txt", std::string(kIdentity) + kIdentity + "1 0 0 x 0 1 0 0 0 0 1 0\n");
   ExpectInputError([&] { ReadKittiTrajectory(p); }, p + ":3:", {"'x'", "expected a number"});
   p = WriteText(dir, "nan.txt", "1 0 0 nan 0 1 0 0 0 0 1 0\n");
@@ -83,8 +82,8 @@ TEST(KittiReader, ReorthonormalisesRotationsPrintedWithFewDigits) {
   // A rotation printed with 7 significant digits, ~1e-7 from orthonormal.
   const Eigen::Matrix3d R = SO3d::Exp(Eigen::Vector3d(0.3, -0.2, 0.9)).Matrix();
   char line[512];
-  std::snprintf(line, sizeof(line), "%.6e %.6e %.6e 1 %.6e %.6e %.6e 2 %.6e %.6e %.6e 3\n",
-                R(0, 0), R(0, 1), R(0, 2), R(1, 0), R(1, 1), R(1, 2), R(2, 0), R(2, 1), R(2, 2));
+  std::snprintf(line, sizeof(line), "%.6e %.6e %.6e 1 %.6e %.6e %.6e 2 %.6e %.6e %.6e 3\n", R(0, 0),
+                R(0, 1), R(0, 2), R(1, 0), R(1, 1), R(1, 2), R(2, 0), R(2, 1), R(2, 2));
   const std::string p = WriteText(dir, "rounded.txt", line);
   const Trajectory t = ReadKittiTrajectory(p);
   const Eigen::Matrix3d Rr = t[0].world_from_cam.rotationMatrix();
@@ -105,8 +104,7 @@ TEST(TumReader, ReadsAndChecks) {
   EXPECT_NEAR(t[1].world_from_cam.so3().Angle(), M_PI / 2, 1e-6);
   EXPECT_EQ(ReadTrajectory(p, TrajectoryFormat::kTum).size(), 2u);
 
-  ExpectInputError([&] { ReadTumTrajectory(dir + "/none.txt"); }, dir + "/none.txt",
-                   {"not found"});
+  ExpectInputError([&] { ReadTumTrajectory(dir + "/none.txt"); }, dir + "/none.txt", {"not found"});
   p = WriteText(dir, "count.txt", "0 1 2 3 0 0 0 1\n1 1 2 3 0 0 1\n");
   ExpectInputError([&] { ReadTumTrajectory(p); }, p + ":2:", {"7 numbers, expected 8"});
   p = WriteText(dir, "token.txt", "0 1 2 3 0 0 0 1\n1 1 2 three 0 0 0 1\n");
@@ -174,9 +172,9 @@ TEST(TrajectoryWriters, RoundTripBothFormatsAndCreateFolders) {
   for (size_t i = 0; i < t.size(); ++i) {
     EXPECT_EQ(tum_back[i].timestamp_ns, t[i].timestamp_ns);
     EXPECT_EQ(tum_back[i].world_from_cam.translation(), t[i].world_from_cam.translation());
-    EXPECT_LT(tum_back[i].world_from_cam.quaternion().angularDistance(
-                  t[i].world_from_cam.quaternion()),
-              1e-14);
+    EXPECT_LT(
+        tum_back[i].world_from_cam.quaternion().angularDistance(t[i].world_from_cam.quaternion()),
+        1e-14);
   }
 
   const std::string kitti = dir + "/other/est_kitti.txt";
@@ -188,8 +186,7 @@ TEST(TrajectoryWriters, RoundTripBothFormatsAndCreateFolders) {
   for (size_t i = 0; i < t.size(); ++i) {
     EXPECT_EQ(kitti_back[i].timestamp_ns, t[i].timestamp_ns);
     EXPECT_EQ(kitti_back[i].world_from_cam.translation(), t[i].world_from_cam.translation());
-    EXPECT_LT((kitti_back[i].world_from_cam.rotationMatrix() -
-               t[i].world_from_cam.rotationMatrix())
+    EXPECT_LT((kitti_back[i].world_from_cam.rotationMatrix() - t[i].world_from_cam.rotationMatrix())
                   .norm(),
               1e-14);
   }
@@ -224,8 +221,7 @@ TEST(ReferenceTrajectories, KittiAteMatchesEvo) {
   EXPECT_NEAR(ate_orb.stats.median, 1.065625, 1e-4);
   EXPECT_NEAR(ate_orb.stats.max, 3.587949, 1e-4);
   EXPECT_NEAR(ate_orb.stats.min, 0.069313, 1e-4);
-  const AteResult ate_sptam =
-      ComputeAte(gt, AlignTrajectory(sptam, gt, options).aligned_estimate);
+  const AteResult ate_sptam = ComputeAte(gt, AlignTrajectory(sptam, gt, options).aligned_estimate);
   EXPECT_NEAR(ate_sptam.stats.rmse, 3.738488, 1e-4);
 }
 
@@ -245,8 +241,7 @@ TEST(ReferenceTrajectories, TumAssociationAndAte) {
   }
   Trajectory gt_assoc, est_assoc;
   ApplyAssociation(pairs, gt, est, &gt_assoc, &est_assoc);
-  const AteResult ate =
-      ComputeAte(gt_assoc, AlignTrajectory(est_assoc, gt_assoc).aligned_estimate);
+  const AteResult ate = ComputeAte(gt_assoc, AlignTrajectory(est_assoc, gt_assoc).aligned_estimate);
   // RGBD-SLAM on fr1/xyz is a few centimetres off (its published ATE is ~1-3 cm).
   EXPECT_GT(ate.stats.rmse, 0.003);
   EXPECT_LT(ate.stats.rmse, 0.05);
