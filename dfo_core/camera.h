@@ -37,6 +37,17 @@ struct PinholeCamera {
     return Eigen::Matrix<T, 2, 1>(T(fx) * p_in_cam.x() / p_in_cam.z() + T(cx),
                                   T(fy) * p_in_cam.y() / p_in_cam.z() + T(cy));
   }
+  // Jacobian of Project at p_in_cam (2x3, z != 0), d(u, v) / d(x, y, z):
+  //   [fx / z, 0, -fx x / z^2; 0, fy / z, -fy y / z^2].
+  // Chain it with SE3::ActionJacobianLeft/Right for the derivative of a pixel w.r.t. a pose.
+  template <typename T>
+  Eigen::Matrix<T, 2, 3> ProjectJacobian(const Eigen::Matrix<T, 3, 1>& p_in_cam) const {
+    const T z_inv = T(1) / p_in_cam.z();
+    const T fx_z = T(fx) * z_inv, fy_z = T(fy) * z_inv;
+    Eigen::Matrix<T, 2, 3> jac;
+    jac << fx_z, T(0), -fx_z * p_in_cam.x() * z_inv, T(0), fy_z, -fy_z * p_in_cam.y() * z_inv;
+    return jac;
+  }
   // Point at depth z (along the optical axis) seen at pixel uv.
   template <typename T>
   Eigen::Matrix<T, 3, 1> Unproject(const Eigen::Matrix<T, 2, 1>& uv, T z) const {
