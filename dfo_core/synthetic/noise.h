@@ -104,9 +104,9 @@ inline double ValueNoise3(double x, double y, double z, uint32_t seed) {
 // per pixel (the Nyquist limit), so no component above Nyquist reaches the image.
 inline double BandLimit(double frequency, double footprint) {
   const double cycles_per_pixel = frequency * footprint;
-  if (cycles_per_pixel <= 0.25) return 1.0;
-  if (cycles_per_pixel >= 0.5) return 0.0;
-  return (0.5 - cycles_per_pixel) * 4.0;
+  if (cycles_per_pixel <= 0.15) return 1.0;
+  if (cycles_per_pixel >= 0.4) return 0.0;
+  return (0.4 - cycles_per_pixel) * 4.0;
 }
 
 // Fractal sum of `octaves` value-noise octaves starting at `base_frequency` cycles per unit, each

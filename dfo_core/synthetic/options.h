@@ -35,9 +35,10 @@ struct SyntheticOptions {
   // Supersample (3 x 3) the pixels on silhouettes between surfaces, so that geometric edges are
   // anti-aliased like the textures. Off gives hard, aliased edges (slightly faster).
   bool antialias_edges = true;
-  // Multiplier of the texture filter width (1 = the pixel footprint), in [0.5, 4]. Larger is
-  // blurrier.
-  double texture_filter_scale = 1.0;
+  // Width of the texture filter in pixels (1 = a box over the pixel footprint), in [0.5, 4].
+  // Larger is blurrier. 1.5 mimics a real lens's blur a little and keeps sharp pattern edges
+  // (markings, window frames) smooth enough for bilinear image warping, as tracking does.
+  double texture_filter_scale = 1.5;
 
   // Throws dfo::ConfigError naming the field, its value and the violated rule.
   void Check() const;

@@ -50,6 +50,58 @@ double BandWeight(double c, double w, double a, double b) {
   return Overlap(c - 0.5 * w, c + 0.5 * w, a, b) / w;
 }
 
+// Box filter of a random tint that is constant on the cells [i, i+1) x [j, j+1) of (u, v) (row j
+// shifted by shift(j) along u), over the footprint [u +- wu/2] x [v +- wv/2] in cell units: the
+// exact area-weighted mean of the covered cells, so the tint does not change with the level of
+// detail. Footprints of many cells average to about 0 and are faded out.
+template <typename ShiftFn>
+double FilteredCellTint(double u, double v, double wu, double wv, uint32_t seed, int32_t salt,
+                        ShiftFn shift) {
+  const double cells = std::max(wu, wv);
+  if (cells >= 6.0) return 0.0;
+  const double fade = std::min(1.0, (6.0 - cells) / 2.0);
+  auto tint = [&](int32_t i, int32_t j) { return HashUnit(i, j, salt, seed) - 0.5; };
+  wu = std::max(wu, 1e-6);
+  wv = std::max(wv, 1e-6);
+  const double v0 = v - 0.5 * wv, v1 = v + 0.5 * wv;
+  double sum = 0.0;
+  for (int32_t j = static_cast<int32_t>(std::floor(v0)); j <= static_cast<int32_t>(std::floor(v1));
+       ++j) {
+    const double wj = Overlap(v0, v1, j, j + 1.0) / wv;
+    const double su = u + shift(j), u0 = su - 0.5 * wu, u1 = su + 0.5 * wu;
+    for (int32_t i = static_cast<int32_t>(std::floor(u0)); i <= static_cast<int32_t>(std::floor(u1));
+         ++i) {
+      sum += wj * Overlap(u0, u1, i, i + 1.0) / wu * tint(i, j);
+    }
+  }
+  return fade * sum;
+}
+
+double NoShift(int32_t) { return 0.0; }
+
+// Fractal noise at (x, y) filtered over the pixel footprint spanned by fu and fv (texture units
+// per pixel step in u and v), anisotropically as GPUs do: at grazing angles the footprint is long
+// and thin, and several taps along the long axis, each band-limited for the thin width, follow it.
+// An isotropic filter of the long width would blur more, and differently at every distance,
+// than the pixel integral does, which breaks the warping consistency between frames.
+double AnisotropicNoise(double x, double y, const Eigen::Vector2d& fu, const Eigen::Vector2d& fv,
+                        double base_frequency, int octaves, double gain, uint32_t seed) {
+  const bool u_major = fu.squaredNorm() >= fv.squaredNorm();
+  const Eigen::Vector2d& major = u_major ? fu : fv;
+  const double major_len = major.norm();
+  const double minor_len = (u_major ? fv : fu).norm();
+  const int taps =
+      std::clamp(static_cast<int>(std::ceil(major_len / std::max(minor_len, 1e-9))), 1, 6);
+  const double width = std::max(minor_len, major_len / taps);
+  double sum = 0.0;
+  for (int k = 0; k < taps; ++k) {
+    const double a = (k + 0.5) / taps - 0.5;
+    sum += FilteredNoise2(x + a * major.x(), y + a * major.y(), base_frequency, octaves, gain,
+                          width, seed);
+  }
+  return sum / taps;
+}
+
 class ViewRenderer {
  public:
   ViewRenderer(const SyntheticWorld& world, const PinholeCamera& camera, const SE3d& map_from_cam,
@@ -176,9 +228,11 @@ class ViewRenderer {
         if (!edge) continue;
         Vector3d sum = Vector3d::Zero();
         const int tile = TileOf(x, y);
+        // Sample offsets cover the same width as the texture filter (texture_filter_scale px).
+        const double spread = std::min(2.0, options_.texture_filter_scale) / 3.0;
         for (int j = -1; j <= 1; ++j) {
           for (int i = -1; i <= 1; ++i) {
-            const Vector3d dir = Ray(x + i / 3.0, y + j / 3.0);
+            const Vector3d dir = Ray(x + i * spread, y + j * spread);
             uint8_t label = 0;
             sum += Shade(Trace(dir, tile), dir, &label);
           }
@@ -272,18 +326,20 @@ class ViewRenderer {
   Vector3d Ground(const Vector3d& p, const Vector3d& dpdu, const Vector3d& dpdv,
                   uint8_t* label) const {
     const double scale = options_.texture_filter_scale;
-    const double wx = scale * (std::abs(dpdu.x()) + std::abs(dpdv.x()));
-    const double wz = scale * (std::abs(dpdu.z()) + std::abs(dpdv.z()));
-    const double w_iso = std::max(wx, wz);
-    const uint32_t seed = world_.texture_seed;
     const double x = p.x(), z = p.z();
+    const Eigen::Vector2d fu = scale * Eigen::Vector2d(dpdu.x(), dpdu.z());
+    const Eigen::Vector2d fv = scale * Eigen::Vector2d(dpdv.x(), dpdv.z());
+    auto noise = [&](double base_frequency, int octaves, double gain, uint32_t nseed) {
+      return AnisotropicNoise(x, z, fu, fv, base_frequency, octaves, gain, nseed);
+    };
+    const uint32_t seed = world_.texture_seed;
 
     double s = 0, l = 0, heading = 0;
     const bool near_road = world_.road.Lookup(x, z, &s, &l, &heading);
     // Verge: grass and soil, strong noise at several scales.
     auto verge = [&]() {
-      const double n1 = FilteredNoise2(x, z, 0.05, 9, 0.62, w_iso, seed + 101);
-      const double n2 = FilteredNoise2(x, z, 0.7, 6, 0.6, w_iso, seed + 151);
+      const double n1 = noise(0.05, 9, 0.55, seed + 101);
+      const double n2 = noise(0.7, 6, 0.5, seed + 151);
       const double soil = Clamp01(0.5 + 0.7 * n1);
       return (kGrass + soil * (kDirt - kGrass)) * (1.0 + 0.25 * n2);
     };
@@ -310,12 +366,12 @@ class ViewRenderer {
     Vector3d colour = Vector3d::Zero();
     if (w_road > 0) {
       // Asphalt: grey with noise from 12 m patches down to millimetre grain, darker tyre tracks.
-      const double n = FilteredNoise2(x, z, 0.08, 10, 0.66, w_iso, seed + 1);
+      const double n = noise(0.08, 10, 0.55, seed + 1);
       double tracks = 0.0;
       for (double centre : {-2.65, -0.95, 0.95, 2.65}) {
         tracks += BandWeight(q, wq, centre - 0.3, centre + 0.3);
       }
-      const double b = 0.30 * (1.0 + 0.30 * n) * (1.0 - 0.12 * tracks);
+      const double b = 0.30 * (1.0 + 0.35 * n) * (1.0 - 0.12 * tracks);
       Vector3d asphalt(b, b, b * 1.04);
       // Dashed centre line (3 m dash, 9 m period), solid lane edges, parking bay ticks.
       const double centre_line = BandWeight(q, wq, -0.075, 0.075) *
@@ -326,13 +382,13 @@ class ViewRenderer {
                            BandWeight(q, wq, -kKerbInnerM, -kLaneEdgeM)) *
                           FilteredPulseTrain(s / 6.0 + 0.3, 0.12 / 6.0, ws / 6.0);
       const double m = Clamp01(centre_line + edges + bays);
-      const double wear = 0.9 + 0.1 * FilteredNoise2(x, z, 1.5, 5, 0.6, w_iso, seed + 3);
+      const double wear = 0.9 + 0.1 * noise(1.5, 5, 0.6, seed + 3);
       asphalt += m * (Vector3d(0.86, 0.86, 0.80) * wear - asphalt);
       colour += w_road * asphalt;
     }
     if (w_kerb > 0) {
       const double joints = FilteredPulseTrain(s / 1.0, 0.96, ws);
-      const double n = FilteredNoise2(x, z, 0.5, 7, 0.6, w_iso, seed + 5);
+      const double n = noise(0.5, 7, 0.6, seed + 5);
       colour += w_kerb * Vector3d(0.68, 0.67, 0.64) * (0.7 + 0.3 * joints) * (1.0 + 0.12 * n);
     }
     if (w_walk > 0) {
@@ -341,12 +397,10 @@ class ViewRenderer {
       const double slab_u = s / 0.9, slab_v = (aq - kKerbOuterM) / 0.9;
       const double joints = FilteredPulseTrain(slab_u, 0.96, ws / 0.9) *
                             FilteredPulseTrain(slab_v, 0.96, wq / 0.9);
-      const double tint =
-          (HashUnit(static_cast<int32_t>(std::floor(slab_u)), static_cast<int32_t>(std::floor(slab_v)),
-                    q > 0 ? 1 : 2, seed + 7) - 0.5) *
-          0.16 * BandLimit(1.0 / 0.9, std::max(ws, wq));
-      const double n = FilteredNoise2(x, z, 0.2, 9, 0.6, w_iso, seed + 9);
-      const double b = (1.0 + tint) * (0.62 + 0.38 * joints) * (1.0 + 0.15 * n);
+      const double tint = 0.16 * FilteredCellTint(slab_u, slab_v, ws / 0.9, wq / 0.9, seed + 7,
+                                                  q > 0 ? 1 : 2, NoShift);
+      const double n = noise(0.2, 9, 0.55, seed + 9);
+      const double b = (1.0 + tint) * (0.75 + 0.25 * joints) * (1.0 + 0.15 * n);
       colour += w_walk * Vector3d(0.60, 0.58, 0.55) * b;
     }
     if (w_verge > 0) colour += w_verge * verge();
@@ -361,7 +415,8 @@ class ViewRenderer {
   // Facade coordinates of a hit on a vertical face: u along the face, v height above the road,
   // and the filter widths along them.
   void FaceCoordinates(const SceneBox& box, const Hit& hit, const Vector3d& p, const Vector3d& dpdu,
-                       const Vector3d& dpdv, double* u, double* v, double* wu, double* wv) const {
+                       const Vector3d& dpdv, double* u, double* v, double* wu, double* wv,
+                       Eigen::Vector2d* fu, Eigen::Vector2d* fv) const {
     const Eigen::Matrix3d map_from_box = box.MapFromBox();
     const Vector3d local = map_from_box.transpose() * (p - box.center);
     const int along = hit.axis == 0 ? 2 : 0;
@@ -371,6 +426,8 @@ class ViewRenderer {
     const double scale = options_.texture_filter_scale;
     *wu = scale * (std::abs(dpdu.dot(axis_u)) + std::abs(dpdv.dot(axis_u)));
     *wv = scale * (std::abs(dpdu.y()) + std::abs(dpdv.y()));
+    *fu = scale * Eigen::Vector2d(dpdu.dot(axis_u), -dpdu.y());
+    *fv = scale * Eigen::Vector2d(dpdv.dot(axis_u), -dpdv.y());
   }
 
   Vector3d Facade(const SceneBox& box, const Hit& hit, const Vector3d& p, const Vector3d& n,
@@ -385,8 +442,8 @@ class ViewRenderer {
       return Vector3d(0.42, 0.40, 0.40) * light * (1.0 + 0.2 * noise);
     }
     double u, v, wu, wv;
-    FaceCoordinates(box, hit, p, dpdu, dpdv, &u, &v, &wu, &wv);
-    const double w_iso = std::max(wu, wv);
+    Eigen::Vector2d fu, fv;
+    FaceCoordinates(box, hit, p, dpdu, dpdv, &u, &v, &wu, &wv, &fu, &fv);
     const double height = 2.0 * box.half_size.y();
 
     // Wall material.
@@ -398,22 +455,20 @@ class ViewRenderer {
       const double col = u / 0.24 + shift;
       const double brick = FilteredPulseTrain(row, 0.86, wv / 0.075) *
                            FilteredPulseTrain(col, 0.93, wu / 0.24);
-      const double tint = (HashUnit(static_cast<int32_t>(std::floor(col)),
-                                    static_cast<int32_t>(std::floor(row)), 3, seed) - 0.5) *
-                          0.22 * BandLimit(1.0 / 0.075, w_iso);
-      wall = wall * (1.0 + tint) * brick + Vector3d(0.74, 0.72, 0.68) * (1.0 - brick);
+      const double tint = 0.22 * FilteredCellTint(u / 0.24, row, wu / 0.24, wv / 0.075, seed, 3,
+                                                  [](int32_t j) { return (j & 1) ? 0.5 : 0.0; });
+      wall = wall * (1.0 + tint) * (0.55 + 0.45 * brick) + 0.45 * Vector3d(0.74, 0.72, 0.68) * (1.0 - brick);
     } else if (box.pattern == FacadePattern::kPanels) {
       // Panels of 1.5 m by half a storey, dark joints, per-panel tint.
       const double pu = u / 1.5, pv = v / (0.5 * box.floor_height_m);
       const double panel = FilteredPulseTrain(pu, 0.985, wu / 1.5) *
                            FilteredPulseTrain(pv, 0.975, wv / (0.5 * box.floor_height_m));
-      const double tint = (HashUnit(static_cast<int32_t>(std::floor(pu)),
-                                    static_cast<int32_t>(std::floor(pv)), 5, seed) - 0.5) *
-                          0.12 * BandLimit(1.0 / 1.5, w_iso);
+      const double tint = 0.12 * FilteredCellTint(pu, pv, wu / 1.5, wv / (0.5 * box.floor_height_m),
+                                                  seed, 5, NoShift);
       wall = wall * (1.0 + tint) * (0.55 + 0.45 * panel);
     }
     // Plaster grain and weathering at all scales (every pattern).
-    const double grain = FilteredNoise2(u, v, 0.15, 10, 0.62, w_iso, seed + 11);
+    const double grain = AnisotropicNoise(u, v, fu, fv, 0.15, 10, 0.55, seed + 11);
     wall *= 1.0 + (box.pattern == FacadePattern::kPlaster ? 0.22 : 0.12) * grain;
     // Plinth and cornice bands.
     wall *= 1.0 - 0.25 * BandWeight(v, wv, 0.0, 0.45) - 0.3 * BandWeight(v, wv, height - 0.5, height + 1.0);
@@ -430,15 +485,14 @@ class ViewRenderer {
     const double glass_mask = Clamp01(upper + shop);
     Vector3d colour = wall * light;
     if (glass_mask > 0.0) {
-      // Each pane reflects the sky a little differently; faded when a pane is below a pixel.
-      const double pane = HashUnit(static_cast<int32_t>(std::floor(col)),
-                                   static_cast<int32_t>(std::floor(row)), 9, seed);
-      const double reflect = 0.05 + 0.3 * pane * BandLimit(1.0 / pitch, w_iso) +
-                             0.15 * (1.0 - BandLimit(1.0 / pitch, w_iso));
+      // The panes reflect the sky unevenly: a smooth field over the facade (a random value per
+      // pane would change with the level of detail and break the warping consistency).
+      const double reflect =
+          0.05 + 0.32 * (0.5 + 0.5 * ValueNoise2(u / (2.3 * pitch), v / (1.7 * storey), seed + 13));
       const Vector3d glass = Vector3d(0.10, 0.12, 0.16) + reflect * Vector3d(0.45, 0.5, 0.58);
-      // Window frames: a light border inside each opening.
-      const double frame = 1.0 - FilteredPulseTrain(col / box.window_width_frac * 8.0 - 0.5, 0.85,
-                                                    wu / pitch / box.window_width_frac * 8.0);
+      // Window frames: a light mullion in the middle of each opening.
+      const double frame = 1.0 - FilteredPulseTrain(col / box.window_width_frac * 2.0 - 0.5, 0.92,
+                                                    wu / pitch / box.window_width_frac * 2.0);
       const Vector3d pane_colour = glass + 0.35 * frame * (Vector3d(0.8, 0.8, 0.78) - glass);
       colour += glass_mask * (pane_colour * (0.75 + 0.25 * light) - colour);
     }
@@ -457,11 +511,11 @@ class ViewRenderer {
       return box.colour * light * (0.9 + 0.08 * noise);
     }
     double u, v, wu, wv;
-    FaceCoordinates(box, hit, p, dpdu, dpdv, &u, &v, &wu, &wv);
+    Eigen::Vector2d fu, fv;
+    FaceCoordinates(box, hit, p, dpdu, dpdv, &u, &v, &wu, &wv, &fu, &fv);
     const double length = 2.0 * box.half_size[hit.axis == 0 ? 2 : 0];
-    const double w_iso = std::max(wu, wv);
     Vector3d colour = box.colour * light *
-                      (1.0 + 0.06 * FilteredNoise2(u, v, 2.0, 5, 0.6, w_iso, box.texture_seed));
+                      (1.0 + 0.06 * AnisotropicNoise(u, v, fu, fv, 2.0, 5, 0.6, box.texture_seed));
     // Windows band, bumpers, wheels (long sides) and lights (ends).
     const double glass = BandWeight(v, wv, 0.58 * height, 0.93 * height) *
                          BandWeight(u, wu, 0.12 * length, 0.88 * length);
