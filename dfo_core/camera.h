@@ -2,9 +2,8 @@
 #ifndef DFO_CORE_CAMERA_H_
 #define DFO_CORE_CAMERA_H_
 
-#include <string>
-
 #include <Eigen/Core>
+#include <string>
 
 namespace dfo {
 

@@ -74,8 +74,8 @@ ImageGradients ComputeGradients(const ImageF& image) {
 
 int ImagePyramid::MaxLevels(int width, int height, int min_level_size, int max_levels) {
   int levels = 0;
-  while (levels < max_levels && width >= min_level_size && height >= min_level_size &&
-         width > 0 && height > 0) {
+  while (levels < max_levels && width >= min_level_size && height >= min_level_size && width > 0 &&
+         height > 0) {
     ++levels;
     width /= 2;
     height /= 2;
@@ -94,14 +94,14 @@ ImagePyramid::ImagePyramid(const ImageF& image, const PinholeCamera& camera,
         << "; they must be the same size";
     throw InputError(msg.str());
   }
-  const int fit = MaxLevels(image.width(), image.height(), options.min_level_size,
-                            options.num_levels);
+  const int fit =
+      MaxLevels(image.width(), image.height(), options.min_level_size, options.num_levels);
   if (fit < options.num_levels) {
     std::ostringstream msg;
-    msg << "image pyramid: a " << image.width() << "x" << image.height() << " image is too small for "
-        << options.num_levels << " levels: level " << options.num_levels - 1 << " would be "
-        << (image.width() >> (options.num_levels - 1)) << "x"
-        << (image.height() >> (options.num_levels - 1)) << ", below min_level_size "
+    msg << "image pyramid: a " << image.width() << "x" << image.height()
+        << " image is too small for " << options.num_levels << " levels: level "
+        << options.num_levels - 1 << " would be " << (image.width() >> (options.num_levels - 1))
+        << "x" << (image.height() >> (options.num_levels - 1)) << ", below min_level_size "
         << options.min_level_size << " (at most " << fit << " levels fit)";
     throw InputError(msg.str());
   }

@@ -19,12 +19,11 @@
 #ifndef DFO_CORE_LIE_H_
 #define DFO_CORE_LIE_H_
 
-#include <cmath>
-#include <limits>
-
 #include <Eigen/Core>
 #include <Eigen/Geometry>
 #include <Eigen/SVD>
+#include <cmath>
+#include <limits>
 
 #include "dfo_core/error.h"
 
@@ -137,9 +136,9 @@ template <typename T>
 T InverseJacobianCoefficient(T t) {
   if (std::abs(t) < T(0.5) * SeriesSwitchAngle<T>()) {
     // sum_n (-1)^(n+1) B_2n t^(2n-2) / (2n)!, B = Bernoulli numbers.
-    constexpr double kCoefficients[] = {1.0 / 12.0,          1.0 / 720.0,
-                                        1.0 / 30240.0,       1.0 / 1209600.0,
-                                        1.0 / 47900160.0,    691.0 / 1307674368000.0,
+    constexpr double kCoefficients[] = {1.0 / 12.0,         1.0 / 720.0,
+                                        1.0 / 30240.0,      1.0 / 1209600.0,
+                                        1.0 / 47900160.0,   691.0 / 1307674368000.0,
                                         1.0 / 74724249600.0};
     const T t2 = t * t;
     T sum = T(0);
@@ -190,9 +189,8 @@ void Sim3WCoefficients(T sigma, T theta, T* a, T* b, T* c) {
     return;
   }
   const T s = std::exp(sigma);
-  *c = std::abs(sigma) < std::numeric_limits<T>::epsilon()
-           ? T(1) + T(0.5) * sigma
-           : std::expm1(sigma) / sigma;
+  *c = std::abs(sigma) < std::numeric_limits<T>::epsilon() ? T(1) + T(0.5) * sigma
+                                                           : std::expm1(sigma) / sigma;
   if (theta < std::sqrt(std::numeric_limits<T>::epsilon())) {
     // theta -> 0 with |sigma| >= ~1: the limits a = integral u e^(sigma u), b = that of u^2 / 2;
     // the theta^2 corrections are below eps here.
@@ -294,8 +292,7 @@ class SO3 {
   static Matrix3 LeftJacobianInverse(const Vector3& w) {
     const T theta = w.norm();
     const Matrix3 W = Hat(w);
-    return Matrix3::Identity() - T(0.5) * W +
-           internal::InverseJacobianCoefficient(theta) * W * W;
+    return Matrix3::Identity() - T(0.5) * W + internal::InverseJacobianCoefficient(theta) * W * W;
   }
   // Right Jacobian J_r(w) = J_l(-w): Exp(w + dw) ~= Exp(w) Exp(J_r(w) dw).
   static Matrix3 RightJacobian(const Vector3& w) { return LeftJacobian(-w); }
@@ -332,7 +329,8 @@ class SE3 {
   // From a 4x4 or 3x4 matrix; the rotation block goes through SO3::FromMatrix (projected onto
   // the nearest rotation when not orthonormal).
   static SE3 FromMatrix(const Matrix4& m) {
-    return SE3(SO3<T>::FromMatrix(m.template topLeftCorner<3, 3>()), m.template topRightCorner<3, 1>());
+    return SE3(SO3<T>::FromMatrix(m.template topLeftCorner<3, 3>()),
+               m.template topRightCorner<3, 1>());
   }
   static SE3 FromMatrix3x4(const Matrix3x4& m) {
     return SE3(SO3<T>::FromMatrix(m.template leftCols<3>()), m.col(3));

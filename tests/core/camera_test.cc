@@ -1,11 +1,11 @@
 #include "dfo_core/camera.h"
 
+#include <gtest/gtest.h>
+
 #include <cmath>
 #include <limits>
 #include <string>
 #include <vector>
-
-#include <gtest/gtest.h>
 
 #include "dfo_core/error.h"
 #include "dfo_core/image.h"
@@ -15,7 +15,9 @@ namespace dfo {
 namespace {
 
 // KITTI odometry sequence 06's P0 intrinsics at its native 1226 x 370.
-PinholeCamera KittiCamera() { return PinholeCamera(707.0912, 707.0912, 601.8873, 183.1104, 1226, 370); }
+PinholeCamera KittiCamera() {
+  return PinholeCamera(707.0912, 707.0912, 601.8873, 183.1104, 1226, 370);
+}
 
 // A set of 3D points in front of the camera, spread over the image.
 std::vector<Eigen::Vector3d> TestPoints(const PinholeCamera& cam) {
@@ -23,7 +25,8 @@ std::vector<Eigen::Vector3d> TestPoints(const PinholeCamera& cam) {
   for (double fu : {0.1, 0.37, 0.5, 0.81, 0.95}) {
     for (double fv : {0.05, 0.5, 0.66, 0.93}) {
       for (double z : {0.5, 4.0, 55.0}) {
-        points.push_back(cam.Unproject(Eigen::Vector2d(fu * (cam.width - 1), fv * (cam.height - 1)), z));
+        points.push_back(
+            cam.Unproject(Eigen::Vector2d(fu * (cam.width - 1), fv * (cam.height - 1)), z));
       }
     }
   }
@@ -83,11 +86,13 @@ TEST(Camera, ProjectJacobianMatchesFiniteDifferences) {
     for (int i = 0; i < 3; ++i) {
       Eigen::Vector3d dp = Eigen::Vector3d::Zero();
       dp(i) = h;
-      numeric.col(i) = (cam.Project(Eigen::Vector3d(p + dp)) - cam.Project(Eigen::Vector3d(p - dp))) / (2 * h);
+      numeric.col(i) =
+          (cam.Project(Eigen::Vector3d(p + dp)) - cam.Project(Eigen::Vector3d(p - dp))) / (2 * h);
     }
     const Eigen::Matrix<double, 2, 3> analytic = cam.ProjectJacobian(p);
     EXPECT_LT((numeric - analytic).norm(), 1e-5 * (1 + analytic.norm())) << p.transpose();
-    const Eigen::Matrix<float, 2, 3> analytic_f = cam.ProjectJacobian(Eigen::Vector3f(p.cast<float>()));
+    const Eigen::Matrix<float, 2, 3> analytic_f =
+        cam.ProjectJacobian(Eigen::Vector3f(p.cast<float>()));
     EXPECT_LT((analytic_f.cast<double>() - analytic).norm(), 1e-5 * (1 + analytic.norm()));
   }
 }
@@ -99,13 +104,15 @@ TEST(Camera, PixelJacobianWithRespectToPoseChainsCorrectly) {
   xi << 0.1, -0.05, 0.3, 0.02, -0.04, 0.01;
   const SE3d T = SE3d::Exp(xi);
   const Eigen::Vector3d p(1.0, -0.5, 8.0);
-  const Eigen::Matrix<double, 2, 6> analytic = cam.ProjectJacobian(Eigen::Vector3d(T * p)) * T.ActionJacobianLeft(p);
+  const Eigen::Matrix<double, 2, 6> analytic =
+      cam.ProjectJacobian(Eigen::Vector3d(T * p)) * T.ActionJacobianLeft(p);
   Eigen::Matrix<double, 2, 6> numeric;
   for (int i = 0; i < 6; ++i) {
     Vector6d d = Vector6d::Zero();
     d(i) = 1e-6;
     numeric.col(i) = (cam.Project(Eigen::Vector3d(SE3d::Exp(d) * T * p)) -
-                      cam.Project(Eigen::Vector3d(SE3d::Exp(-d) * T * p))) / 2e-6;
+                      cam.Project(Eigen::Vector3d(SE3d::Exp(-d) * T * p))) /
+                     2e-6;
   }
   EXPECT_LT((numeric - analytic).norm(), 1e-4);
 }

@@ -1,9 +1,9 @@
 #include "dfo_core/image_pyramid.h"
 
+#include <gtest/gtest.h>
+
 #include <cmath>
 #include <string>
-
-#include <gtest/gtest.h>
 
 #include "dfo_core/error.h"
 
@@ -11,7 +11,9 @@ namespace dfo {
 namespace {
 
 // Channel c of the test image is linear in the level-0 pixel coordinates.
-double Ramp(double u, double v, int c) { return (0.25 + c) * u - (0.5 - 0.3 * c) * v + 7.0 * c + 3.0; }
+double Ramp(double u, double v, int c) {
+  return (0.25 + c) * u - (0.5 - 0.3 * c) * v + 7.0 * c + 3.0;
+}
 
 ImageF RampImage(int width, int height, int channels) {
   ImageF img(width, height, channels);
@@ -71,7 +73,8 @@ TEST(ImagePyramid, LinearRampStaysTheSameRampInEachLevelsCoordinates) {
     // A 3D point projected with the level's camera lands where the level shows it.
     for (double z : {1.0, 9.0}) {
       for (double fu : {0.2, 0.5, 0.9}) {
-        const Eigen::Vector3d p = cam.Unproject(Eigen::Vector2d(fu * cam.width, 0.4 * cam.height), z);
+        const Eigen::Vector3d p =
+            cam.Unproject(Eigen::Vector2d(fu * cam.width, 0.4 * cam.height), z);
         const Eigen::Vector2d u0 = cam.Project(p);
         const Eigen::Vector2d ul = level_cam.Project(p);
         ASSERT_TRUE(level_cam.IsInImage(ul));
@@ -116,10 +119,10 @@ TEST(ImagePyramid, GradientsAreExactForRampsAndCentralForQuadratics) {
     for (int x = 0; x < 12; ++x) quad(x, y) = static_cast<float>(x * x + 0.5 * y * y);
   }
   const ImageGradients gq = ComputeGradients(quad);
-  EXPECT_FLOAT_EQ(gq.gx(5, 3), 10.0f);  // d(x^2)/dx = 2x
-  EXPECT_FLOAT_EQ(gq.gy(5, 3), 3.0f);   // d(0.5 y^2)/dy = y
-  EXPECT_FLOAT_EQ(gq.gx(0, 3), 1.0f);   // one-sided at the border: 1 - 0
-  EXPECT_FLOAT_EQ(gq.gx(11, 3), 21.0f); // 121 - 100
+  EXPECT_FLOAT_EQ(gq.gx(5, 3), 10.0f);   // d(x^2)/dx = 2x
+  EXPECT_FLOAT_EQ(gq.gy(5, 3), 3.0f);    // d(0.5 y^2)/dy = y
+  EXPECT_FLOAT_EQ(gq.gx(0, 3), 1.0f);    // one-sided at the border: 1 - 0
+  EXPECT_FLOAT_EQ(gq.gx(11, 3), 21.0f);  // 121 - 100
   // An axis of size 1 has no derivative.
   const ImageGradients g1 = ComputeGradients(RampImage(5, 1, 1));
   EXPECT_FLOAT_EQ(g1.gy(2, 0), 0.0f);

@@ -1,12 +1,12 @@
 #include "dfo_core/lie.h"
 
+#include <gtest/gtest.h>
+
 #include <cmath>
 #include <cstdint>
 #include <random>
-#include <vector>
-
-#include <gtest/gtest.h>
 #include <unsupported/Eigen/MatrixFunctions>
+#include <vector>
 
 namespace dfo {
 namespace {
@@ -103,8 +103,8 @@ TYPED_TEST(LieTyped, SE3ExpLogRoundTrip) {
 TYPED_TEST(LieTyped, Sim3ExpLogRoundTripAndMatrixExponential) {
   using T = TypeParam;
   Rng rng(3);
-  const std::vector<double> sigmas = {0.0,  1e-12, -1e-9, 1e-6, 0.01, -0.2, 0.5,
-                                      -0.999, 1.0, 1.5,  -2.0, 3.0,  rng.Uniform()};
+  const std::vector<double> sigmas = {0.0,    1e-12, -1e-9, 1e-6, 0.01, -0.2,         0.5,
+                                      -0.999, 1.0,   1.5,   -2.0, 3.0,  rng.Uniform()};
   for (const Eigen::Vector3d& w : TestRotationVectors(&rng)) {
     for (double sigma : sigmas) {
       Vector7d v;
@@ -214,10 +214,10 @@ TYPED_TEST(LieTyped, AdjointConjugatesExp) {
     {
       const SO3<T> R = SO3<T>::Exp(vx.segment<3>(3).cast<T>());
       const Eigen::Matrix<T, 3, 1> w = vv.segment<3>(3).cast<T>();
-      EXPECT_LT(((R * SO3<T>::Exp(w) * R.Inverse()).Matrix() -
-                 SO3<T>::Exp(R.Adjoint() * w).Matrix())
-                    .norm(),
-                tol);
+      EXPECT_LT(
+          ((R * SO3<T>::Exp(w) * R.Inverse()).Matrix() - SO3<T>::Exp(R.Adjoint() * w).Matrix())
+              .norm(),
+          tol);
     }
   }
 }
@@ -260,10 +260,12 @@ TEST(LieJacobians, SO3LeftRightJacobiansMatchFiniteDifferences) {
     };
     EXPECT_LT((NumericJacobian<3, 3>(left, w) - SO3d::LeftJacobian(w)).norm(), 1e-8) << w;
     EXPECT_LT((NumericJacobian<3, 3>(right, w) - SO3d::RightJacobian(w)).norm(), 1e-8) << w;
-    EXPECT_LT((SO3d::LeftJacobian(w) * SO3d::LeftJacobianInverse(w) -
-               Eigen::Matrix3d::Identity()).norm(), 1e-12);
-    EXPECT_LT((SO3d::RightJacobian(w) * SO3d::RightJacobianInverse(w) -
-               Eigen::Matrix3d::Identity()).norm(), 1e-12);
+    EXPECT_LT(
+        (SO3d::LeftJacobian(w) * SO3d::LeftJacobianInverse(w) - Eigen::Matrix3d::Identity()).norm(),
+        1e-12);
+    EXPECT_LT((SO3d::RightJacobian(w) * SO3d::RightJacobianInverse(w) - Eigen::Matrix3d::Identity())
+                  .norm(),
+              1e-12);
   }
 }
 
@@ -271,8 +273,12 @@ TEST(LieJacobians, SE3LeftRightJacobiansMatchFiniteDifferences) {
   for (const Vector6d& xi : JacobianTestTangents()) {
     const SE3d X = SE3d::Exp(xi);
     // Exp(xi + d) = Exp(J_l d) Exp(xi)  =>  J_l = d Log(Exp(xi + d) Exp(xi)^-1) / dd.
-    const auto left = [&](const Vector6d& x) { return Vector6d((SE3d::Exp(x) * X.Inverse()).Log()); };
-    const auto right = [&](const Vector6d& x) { return Vector6d((X.Inverse() * SE3d::Exp(x)).Log()); };
+    const auto left = [&](const Vector6d& x) {
+      return Vector6d((SE3d::Exp(x) * X.Inverse()).Log());
+    };
+    const auto right = [&](const Vector6d& x) {
+      return Vector6d((X.Inverse() * SE3d::Exp(x)).Log());
+    };
     const Matrix6d jl = SE3d::LeftJacobian(xi);
     const Matrix6d jr = SE3d::RightJacobian(xi);
     EXPECT_LT((NumericJacobian<6, 6>(left, xi) - jl).norm(), 1e-7) << xi.transpose();
@@ -290,14 +296,18 @@ TEST(LieJacobians, SE3JacobiansInFloatAgreeWithDouble) {
     // Relative to the double result of the float-rounded input.
     const Vector6d xr = xf.cast<double>();
     const double scale = 1.0 + xi.norm() * xi.norm();
-    EXPECT_LT((SE3f::LeftJacobian(xf).cast<double>() - SE3d::LeftJacobian(xr)).norm(),
-              1e-5 * scale) << xi.transpose();
-    EXPECT_LT((SE3f::LeftJacobianInverse(xf).cast<double>() - SE3d::LeftJacobianInverse(xr))
-                  .norm(), 1e-5 * scale) << xi.transpose();
+    EXPECT_LT((SE3f::LeftJacobian(xf).cast<double>() - SE3d::LeftJacobian(xr)).norm(), 1e-5 * scale)
+        << xi.transpose();
+    EXPECT_LT((SE3f::LeftJacobianInverse(xf).cast<double>() - SE3d::LeftJacobianInverse(xr)).norm(),
+              1e-5 * scale)
+        << xi.transpose();
     EXPECT_LT((SE3f::RightJacobian(xf).cast<double>() - SE3d::RightJacobian(xr)).norm(),
-              1e-5 * scale) << xi.transpose();
+              1e-5 * scale)
+        << xi.transpose();
     EXPECT_LT((SO3f::LeftJacobianInverse(xf.tail<3>()).cast<double>() -
-               SO3d::LeftJacobianInverse(xr.tail<3>())).norm(), 1e-5 * scale);
+               SO3d::LeftJacobianInverse(xr.tail<3>()))
+                  .norm(),
+              1e-5 * scale);
   }
 }
 
@@ -317,9 +327,13 @@ TEST(LieJacobians, ActionJacobiansMatchFiniteDifferences) {
                 1e-8);
       // Float versions agree.
       EXPECT_LT((X.Cast<float>().ActionJacobianLeft(p.cast<float>()).cast<double>() -
-                 X.ActionJacobianLeft(p)).norm(), 1e-4);
+                 X.ActionJacobianLeft(p))
+                    .norm(),
+                1e-4);
       EXPECT_LT((X.Cast<float>().ActionJacobianRight(p.cast<float>()).cast<double>() -
-                 X.ActionJacobianRight(p)).norm(), 1e-4);
+                 X.ActionJacobianRight(p))
+                    .norm(),
+                1e-4);
     }
     {
       const Sim3d S = Sim3d::Exp(v);
@@ -356,8 +370,9 @@ TEST(Lie, SO3FromMatrixProjectsOntoNearestRotation) {
   for (int i = 0; i < 9; ++i) noisy(i / 3, i % 3) += 1e-6 * rng.Uniform();
   const SO3d projected = SO3d::FromMatrix(noisy);
   EXPECT_LT((projected.Matrix() - R.Matrix()).norm(), 1e-5);
-  EXPECT_LT((projected.Matrix().transpose() * projected.Matrix() - Eigen::Matrix3d::Identity())
-                .norm(), 1e-12);
+  EXPECT_LT(
+      (projected.Matrix().transpose() * projected.Matrix() - Eigen::Matrix3d::Identity()).norm(),
+      1e-12);
   // The projection is the SVD one: the result is closer to the input than the original rotation.
   EXPECT_LE((projected.Matrix() - noisy).norm(), (R.Matrix() - noisy).norm() + 1e-15);
   // A scaled rotation gives the rotation back.
@@ -378,8 +393,8 @@ TEST(Lie, Sim3RejectsNonPositiveScale) {
 }
 
 TEST(Lie, LogAtPiHasAnglePi) {
-  for (const Eigen::Vector3d& axis :
-       {Eigen::Vector3d(1, 0, 0), Eigen::Vector3d(0, 1, 0), Eigen::Vector3d(1, 1, 1).normalized()}) {
+  for (const Eigen::Vector3d& axis : {Eigen::Vector3d(1, 0, 0), Eigen::Vector3d(0, 1, 0),
+                                      Eigen::Vector3d(1, 1, 1).normalized()}) {
     const SO3d R = SO3d::Exp(kPi * axis);
     EXPECT_NEAR(R.Angle(), kPi, 1e-9);
     // Log at pi is +-pi axis; both give the same rotation.
