@@ -47,26 +47,28 @@ ImageF DownsampleHalf(const ImageF& image) {
 ImageGradients ComputeGradients(const ImageF& image) {
   const int w = image.width(), h = image.height(), ch = image.channels();
   ImageGradients g{ImageF(w, h, ch), ImageF(w, h, ch)};
+  const int row_len = w * ch;
   for (int y = 0; y < h; ++y) {
     // Neighbour rows (clamped) and the divisor: 2 for central, 1 for one-sided, none for h == 1.
     const int y_minus = y > 0 ? y - 1 : y;
     const int y_plus = y + 1 < h ? y + 1 : y;
-    const float y_scale = y_plus - y_minus > 0 ? 1.0f / static_cast<float>(y_plus - y_minus) : 0.0f;
+    const float y_scale = y_plus > y_minus ? 1.0f / static_cast<float>(y_plus - y_minus) : 0.0f;
     const float* row = image.Row(y);
     const float* row_up = image.Row(y_minus);
     const float* row_down = image.Row(y_plus);
     float* gx = g.gx.Row(y);
     float* gy = g.gy.Row(y);
-    for (int x = 0; x < w; ++x) {
-      const int x_minus = x > 0 ? x - 1 : x;
-      const int x_plus = x + 1 < w ? x + 1 : x;
-      const float x_scale =
-          x_plus - x_minus > 0 ? 1.0f / static_cast<float>(x_plus - x_minus) : 0.0f;
-      for (int c = 0; c < ch; ++c) {
-        const int i = x * ch + c;
-        gx[i] = (row[x_plus * ch + c] - row[x_minus * ch + c]) * x_scale;
-        gy[i] = (row_down[i] - row_up[i]) * y_scale;
-      }
+    for (int i = 0; i < row_len; ++i) gy[i] = (row_down[i] - row_up[i]) * y_scale;
+    if (w == 1) {
+      for (int c = 0; c < ch; ++c) gx[c] = 0.0f;
+      continue;
+    }
+    // Interior: central differences, no branches (vectorisable).
+    for (int i = ch; i < row_len - ch; ++i) gx[i] = 0.5f * (row[i + ch] - row[i - ch]);
+    // Borders: one-sided differences.
+    for (int c = 0; c < ch; ++c) {
+      gx[c] = row[ch + c] - row[c];
+      gx[row_len - ch + c] = row[row_len - ch + c] - row[row_len - 2 * ch + c];
     }
   }
   return g;

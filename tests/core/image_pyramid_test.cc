@@ -127,6 +127,9 @@ TEST(ImagePyramid, GradientsAreExactForRampsAndCentralForQuadratics) {
   const ImageGradients g1 = ComputeGradients(RampImage(5, 1, 1));
   EXPECT_FLOAT_EQ(g1.gy(2, 0), 0.0f);
   EXPECT_NEAR(g1.gx(2, 0), 0.25f, 1e-6);
+  const ImageGradients g2 = ComputeGradients(RampImage(1, 4, 2));
+  EXPECT_FLOAT_EQ(g2.gx(0, 2, 1), 0.0f);
+  EXPECT_NEAR(g2.gy(0, 2, 1), -0.2f, 1e-6);
 }
 
 TEST(ImagePyramid, GradientsScaleWithTheLevel) {
