@@ -1,0 +1,2 @@
+// Shared by dfo apps (evaluation, configuration wiring); see apps/common/*.h.
+namespace dfo::apps {}

@@ -1,0 +1,2 @@
+// Placeholder until the tracker lands; replaced by the frontend sources.
+namespace dfo {}
