@@ -202,7 +202,7 @@ ImageU8 RenderSyntheticPreview(const SyntheticSequence& sequence, const SynthPre
       if (box.kind == synthetic::BoxKind::kBuilding) {
         cv::fillConvexPoly(map, poly, bgr * 0.8, cv::LINE_AA, shift);
         cv::polylines(map, poly, true, cv::Scalar(20, 20, 20), 1, cv::LINE_AA, shift);
-      } else {
+      } else if (box.kind == synthetic::BoxKind::kCar) {
         cv::fillConvexPoly(map, poly, bgr, cv::LINE_AA, shift);
       }
     }

@@ -90,16 +90,37 @@ double AnisotropicNoise(double x, double y, const Eigen::Vector2d& fu, const Eig
   const Eigen::Vector2d& major = u_major ? fu : fv;
   const double major_len = major.norm();
   const double minor_len = (u_major ? fv : fu).norm();
-  const int taps =
-      std::clamp(static_cast<int>(std::ceil(major_len / std::max(minor_len, 1e-9))), 1, 6);
-  const double width = std::max(minor_len, major_len / taps);
-  double sum = 0.0;
-  for (int k = 0; k < taps; ++k) {
-    const double a = (k + 0.5) / taps - 0.5;
-    sum += FilteredNoise2(x + a * major.x(), y + a * major.y(), base_frequency, octaves, gain,
-                          width, seed);
+  constexpr double kLacunarity = 2.17;  // as FilteredNoise2
+  constexpr int kMaxTaps = 6;
+  double sum = 0.0, amplitude = 1.0, frequency = base_frequency;
+  for (int o = 0; o < octaves; ++o) {
+    // Taps only where this octave needs them: none when it is smooth over the long axis, and the
+    // octave is dropped once it is above Nyquist even across the thin axis.
+    const double cycles_major = frequency * major_len;
+    int taps = 1;
+    if (cycles_major > 0.15) {
+      taps = std::min(kMaxTaps, static_cast<int>(std::ceil(cycles_major / 0.15)));
+    }
+    const double width = std::max(minor_len, major_len / taps);
+    const double w = BandLimit(frequency, width);
+    if (w <= 0.0) break;
+    const uint32_t octave_seed = seed + 7919u * o;
+    double octave = 0.0;
+    if (taps == 1) {
+      octave = ValueNoise2(x * frequency, y * frequency, octave_seed);
+    } else {
+      for (int k = 0; k < taps; ++k) {
+        const double a = (k + 0.5) / taps - 0.5;
+        octave += ValueNoise2((x + a * major.x()) * frequency, (y + a * major.y()) * frequency,
+                              octave_seed);
+      }
+      octave /= taps;
+    }
+    sum += w * amplitude * octave;
+    amplitude *= gain;
+    frequency *= kLacunarity;
   }
-  return sum / taps;
+  return sum;
 }
 
 class ViewRenderer {
@@ -189,8 +210,8 @@ class ViewRenderer {
       colour = Ground(p, dpdu, dpdv, label);
     } else {
       const SceneBox& box = world_.boxes[hit.id];
-      colour = box.kind == BoxKind::kCar ? Car(box, hit, p, n, dpdu, dpdv, label)
-                                         : Facade(box, hit, p, n, dpdu, dpdv, label);
+      colour = box.kind == BoxKind::kBuilding ? Facade(box, hit, p, n, dpdu, dpdv, label)
+                                              : Car(box, hit, p, n, dpdu, dpdv, label);
     }
     const double fog = 1.0 - std::exp(-(hit.t * dir).norm() / kFogDistanceM);
     return colour + fog * (kHorizon - colour);
@@ -339,7 +360,7 @@ class ViewRenderer {
     // Verge: grass and soil, strong noise at several scales.
     auto verge = [&]() {
       const double n1 = noise(0.05, 9, 0.55, seed + 101);
-      const double n2 = noise(0.7, 6, 0.5, seed + 151);
+      const double n2 = noise(0.7, 4, 0.5, seed + 151);
       const double soil = Clamp01(0.5 + 0.7 * n1);
       return (kGrass + soil * (kDirt - kGrass)) * (1.0 + 0.25 * n2);
     };
@@ -366,7 +387,7 @@ class ViewRenderer {
     Vector3d colour = Vector3d::Zero();
     if (w_road > 0) {
       // Asphalt: grey with noise from 12 m patches down to millimetre grain, darker tyre tracks.
-      const double n = noise(0.08, 10, 0.55, seed + 1);
+      const double n = noise(0.08, 9, 0.55, seed + 1);
       double tracks = 0.0;
       for (double centre : {-2.65, -0.95, 0.95, 2.65}) {
         tracks += BandWeight(q, wq, centre - 0.3, centre + 0.3);
@@ -382,13 +403,15 @@ class ViewRenderer {
                            BandWeight(q, wq, -kKerbInnerM, -kLaneEdgeM)) *
                           FilteredPulseTrain(s / 6.0 + 0.3, 0.12 / 6.0, ws / 6.0);
       const double m = Clamp01(centre_line + edges + bays);
-      const double wear = 0.9 + 0.1 * noise(1.5, 5, 0.6, seed + 3);
-      asphalt += m * (Vector3d(0.86, 0.86, 0.80) * wear - asphalt);
+      if (m > 0.0) {
+        const double wear = 0.9 + 0.1 * noise(1.5, 5, 0.6, seed + 3);
+        asphalt += m * (Vector3d(0.86, 0.86, 0.80) * wear - asphalt);
+      }
       colour += w_road * asphalt;
     }
     if (w_kerb > 0) {
       const double joints = FilteredPulseTrain(s / 1.0, 0.96, ws);
-      const double n = noise(0.5, 7, 0.6, seed + 5);
+      const double n = noise(0.5, 5, 0.6, seed + 5);
       colour += w_kerb * Vector3d(0.68, 0.67, 0.64) * (0.7 + 0.3 * joints) * (1.0 + 0.12 * n);
     }
     if (w_walk > 0) {
@@ -399,7 +422,7 @@ class ViewRenderer {
                             FilteredPulseTrain(slab_v, 0.96, wq / 0.9);
       const double tint = 0.16 * FilteredCellTint(slab_u, slab_v, ws / 0.9, wq / 0.9, seed + 7,
                                                   q > 0 ? 1 : 2, NoShift);
-      const double n = noise(0.2, 9, 0.55, seed + 9);
+      const double n = noise(0.2, 8, 0.55, seed + 9);
       const double b = (1.0 + tint) * (0.75 + 0.25 * joints) * (1.0 + 0.15 * n);
       colour += w_walk * Vector3d(0.60, 0.58, 0.55) * b;
     }
@@ -468,7 +491,7 @@ class ViewRenderer {
       wall = wall * (1.0 + tint) * (0.55 + 0.45 * panel);
     }
     // Plaster grain and weathering at all scales (every pattern).
-    const double grain = AnisotropicNoise(u, v, fu, fv, 0.15, 10, 0.55, seed + 11);
+    const double grain = AnisotropicNoise(u, v, fu, fv, 0.15, 9, 0.55, seed + 11);
     wall *= 1.0 + (box.pattern == FacadePattern::kPlaster ? 0.22 : 0.12) * grain;
     // Plinth and cornice bands.
     wall *= 1.0 - 0.25 * BandWeight(v, wv, 0.0, 0.45) - 0.3 * BandWeight(v, wv, height - 0.5, height + 1.0);
@@ -503,7 +526,6 @@ class ViewRenderer {
                const Vector3d& dpdu, const Vector3d& dpdv, uint8_t* label) const {
     *label = static_cast<uint8_t>(SurfaceClass::kCar);
     const double light = Lighting(n);
-    const double height = 2.0 * box.half_size.y();
     if (hit.axis == 1) {  // roof
       const double w = std::abs(dpdu.x()) + std::abs(dpdv.x()) + std::abs(dpdu.z()) +
                        std::abs(dpdv.z());
@@ -514,12 +536,25 @@ class ViewRenderer {
     Eigen::Vector2d fu, fv;
     FaceCoordinates(box, hit, p, dpdu, dpdv, &u, &v, &wu, &wv, &fu, &fv);
     const double length = 2.0 * box.half_size[hit.axis == 0 ? 2 : 0];
+    const double bottom = -(box.center.y() + box.half_size.y());  // heights above the road
+    const double top = -(box.center.y() - box.half_size.y());
     Vector3d colour = box.colour * light *
                       (1.0 + 0.06 * AnisotropicNoise(u, v, fu, fv, 2.0, 5, 0.6, box.texture_seed));
-    // Windows band, bumpers, wheels (long sides) and lights (ends).
-    const double glass = BandWeight(v, wv, 0.58 * height, 0.93 * height) *
-                         BandWeight(u, wu, 0.12 * length, 0.88 * length);
-    colour += glass * (Vector3d(0.08, 0.10, 0.13) + 0.2 * Vector3d(0.5, 0.55, 0.6) * light - colour);
+    const Vector3d glass_colour = Vector3d(0.08, 0.10, 0.13) + 0.2 * Vector3d(0.5, 0.55, 0.6) * light;
+    if (box.kind == BoxKind::kCarCabin) {
+      // Side windows split by a pillar, windscreen and rear window on the ends.
+      double glass = BandWeight(v, wv, bottom + 0.04, top - 0.07) *
+                     BandWeight(u, wu, 0.07 * length, 0.93 * length);
+      if (hit.axis == 0) glass *= 1.0 - BandWeight(u, wu, 0.47 * length, 0.53 * length);
+      colour += glass * (glass_colour - colour);
+      return colour;
+    }
+    if (top - bottom > 1.2) {  // a van: one box with a band of windows
+      const double glass = BandWeight(v, wv, 0.58 * top, 0.93 * top) *
+                           BandWeight(u, wu, 0.12 * length, 0.88 * length);
+      colour += glass * (glass_colour - colour);
+    }
+    // Bumpers, wheels (long sides), lights (ends).
     const double bumper = BandWeight(v, wv, 0.25, 0.42);
     colour += bumper * 0.6 * (Vector3d(0.1, 0.1, 0.1) - colour);
     if (hit.axis == 0) {

@@ -477,6 +477,35 @@ SyntheticWorld SyntheticWorld::Build(const SyntheticOptions& options) {
     }
   }
 
+  // A second row of taller blocks behind the street front, for the skyline and the view into
+  // cross streets and across open corners.
+  for (int side : {1, -1}) {
+    SplitMix64 rng(options.seed * 0xD6E8FEB86659FD93ull + (side > 0 ? 41u : 43u));
+    double cursor = s_begin + rng.Uniform(0.0, 20.0);
+    while (cursor < s_end) {
+      const double length = rng.Uniform(15.0, 40.0);
+      const double depth = rng.Uniform(12.0, 25.0);
+      const double height = rng.Uniform(12.0, 38.0);
+      const double gap = rng.Uniform(5.0, 30.0);
+      const double q_near = kSidewalkOuterM + rng.Uniform(22.0, 45.0);
+      const double l_near = side > 0 ? q_near - kLaneOffsetM : -q_near - kLaneOffsetM;
+      SceneBox box = PlaceBox(world.path, cursor + 0.5 * length, l_near, side, depth, length, height);
+      box.kind = BoxKind::kBuilding;
+      box.colour = kFacadeColours[rng.UniformInt(0, 9)] * rng.Uniform(0.85, 1.12);
+      box.pattern = static_cast<FacadePattern>(rng.UniformInt(0, 2));
+      box.floor_height_m = rng.Uniform(2.9, 3.6);
+      box.window_pitch_m = rng.Uniform(1.8, 3.2);
+      box.window_width_frac = rng.Uniform(0.35, 0.62);
+      box.window_height_frac = rng.Uniform(0.4, 0.6);
+      box.texture_seed = static_cast<uint32_t>(rng.Next());
+      if (MinDistance(box, road_centre) >= kSidewalkOuterM + 2.0 &&
+          !OverlapsAny(box, world.boxes, 1.0)) {
+        world.boxes.push_back(box);
+      }
+      cursor += length + gap;
+    }
+  }
+
   // Parked cars in both parking lanes, not in corners.
   for (int side : {1, -1}) {
     SplitMix64 rng(options.seed * 0x94D049BB133111EBull + (side > 0 ? 101u : 211u));
@@ -491,6 +520,8 @@ SyntheticWorld SyntheticWorld::Build(const SyntheticOptions& options) {
       const double gap = rng.Bernoulli(0.3) ? rng.Uniform(10.0, 35.0) : rng.Uniform(0.8, 6.0);
       const int colour = rng.UniformInt(0, 7);
       const uint32_t tex = static_cast<uint32_t>(rng.Next());
+      const double cabin_frac = rng.Uniform(0.45, 0.6);
+      const double cabin_shift = rng.Uniform(-0.08, 0.08);
       const double s_mid = cursor + 0.5 * length;
       cursor += length + gap;
       bool in_turn = false;
@@ -498,13 +529,25 @@ SyntheticWorld SyntheticWorld::Build(const SyntheticOptions& options) {
         if (std::abs(world.path.At(s_mid + ds).curvature) > 0.012) in_turn = true;
       }
       if (in_turn) continue;
-      SceneBox box =
-          PlaceBox(world.path, s_mid, l_mid - side * 0.5 * width, side, width, length, height);
+      // Sedans: a body of 55% of the height and a cabin over the middle of it. Vans: one box.
+      const double body_height = van ? height : 0.55 * height;
+      SceneBox box = PlaceBox(world.path, s_mid, l_mid - side * 0.5 * width, side, width, length,
+                              body_height);
       box.kind = BoxKind::kCar;
       box.colour = kCarColours[colour];
       box.texture_seed = tex;
       if (MinDistance(box, car_path) >= 1.6 && !OverlapsAny(box, world.boxes, 0.3)) {
         world.boxes.push_back(box);
+        if (!van) {
+          SceneBox cabin = box;
+          cabin.kind = BoxKind::kCarCabin;
+          cabin.half_size = Eigen::Vector3d(0.5 * width - 0.08, 0.5 * (height - body_height),
+                                            0.5 * cabin_frac * length);
+          const Eigen::Vector3d along(std::sin(box.yaw_rad), 0.0, std::cos(box.yaw_rad));
+          cabin.center = box.center + cabin_shift * length * along;
+          cabin.center.y() = -body_height - cabin.half_size.y();
+          world.boxes.push_back(cabin);
+        }
       }
     }
   }

@@ -70,8 +70,9 @@ struct VehicleState {
   SE3d map_from_cam;              // camera pose in the map frame
 };
 
-// Kind of a box in the scene.
-enum class BoxKind : uint8_t { kBuilding = 0, kCar = 1 };
+// Kind of a box in the scene. A parked car is a body box plus a narrower cabin box on top; a van
+// (a body taller than 1.2 m) is one box that carries its windows itself.
+enum class BoxKind : uint8_t { kBuilding = 0, kCar = 1, kCarCabin = 2 };
 // Facade texture of a building.
 enum class FacadePattern : uint8_t { kBrick = 0, kPanels = 1, kPlaster = 2 };
 
