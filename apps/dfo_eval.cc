@@ -19,6 +19,7 @@
 #include <string>
 #include <vector>
 
+#include "apps/common/evaluation.h"
 #include "dfo_core/alignment.h"
 #include "dfo_core/depth_metrics.h"
 #include "dfo_core/error.h"
@@ -259,61 +260,31 @@ int RunTraj(int argc, char** argv) {
               std::to_string(std::min(gt_raw.size(), est_raw.size())) + " possible";
   }
 
-  const TrajectoryAlignment alignment = AlignTrajectory(est, gt, align_options);
+  apps::TrajectoryEvaluationOptions eval_options;
+  eval_options.alignment = align_options.type;
+  eval_options.rpe = rpe_options;
+  apps::TrajectoryEvaluation evaluation = apps::EvaluateTrajectory(gt, est, eval_options);
+  evaluation.num_gt_poses = gt_raw.size();
+  evaluation.num_est_poses = est_raw.size();
+  evaluation.format = io::TrajectoryFormatName(format);
+  const TrajectoryAlignment& alignment = evaluation.alignment;
   const Trajectory& aligned = alignment.aligned_estimate;
-  const AteResult ate = ComputeAte(gt, aligned);
-  const RpeResult rpe = ComputeRpe(gt, aligned, rpe_options);
-  const KittiOdometryResult kitti = ComputeKittiOdometryErrors(gt, aligned);
-  const SnippetAteResult snippet = ComputeSnippetAte(gt, aligned);
+  const AteResult& ate = evaluation.ate;
+  const RpeResult& rpe = evaluation.rpe;
+  const KittiOdometryResult& kitti = evaluation.kitti;
+  const SnippetAteResult& snippet = evaluation.snippet;
 
   const std::string align_name = AlignmentTypeName(align_options.type);
   if (opt.Has("--plot")) {
     io::TrajectoryPlotOptions plot;
     plot.title = "dfo_eval: " + std::filesystem::path(est_path).filename().string() + " vs " +
                  std::filesystem::path(gt_path).filename().string();
-    plot.text_lines.push_back("ATE rmse " + Fixed(ate.stats.rmse, 4) + " m, mean " +
-                              Fixed(ate.stats.mean, 4) + " m, max " + Fixed(ate.stats.max, 4) +
-                              " m   (" + std::to_string(gt.size()) + " poses, " + align_name +
-                              " alignment, scale " + Fixed(alignment.transform.scale, 4) + ")");
-    std::string line2 = "RPE (" + Fixed(rpe_options.delta, 0) + " " + delta_unit + ") rmse " +
-                        Fixed(rpe.translation.rmse, 4) + " m, " + Fixed(rpe.rotation_deg.rmse, 4) +
-                        " deg";
-    if (kitti.num_segments > 0) {
-      line2 += "   KITTI t_rel " + Fixed(kitti.t_rel_pct, 2) + " %, r_rel " +
-               Fixed(kitti.r_rel_deg_per_100m, 3) + " deg/100m";
-    }
-    plot.text_lines.push_back(line2);
+    plot.text_lines = apps::EvaluationPlotLines(evaluation);
     io::WriteTrajectoryPlot(opt.Get("--plot", ""), gt, aligned, ate.errors, plot);
   }
 
   if (json) {
-    io::JsonValue out = io::JsonValue::Object();
-    out.Set("num_poses", static_cast<int64_t>(gt.size()));
-    out.Set("num_gt_poses", static_cast<int64_t>(gt_raw.size()));
-    out.Set("num_est_poses", static_cast<int64_t>(est_raw.size()));
-    out.Set("format", io::TrajectoryFormatName(format));
-    out.Set("alignment", align_name);
-    out.Set("scale", alignment.transform.scale);
-    out.Set("ate_rmse", ate.stats.rmse);
-    out.Set("ate_mean", ate.stats.mean);
-    out.Set("ate_median", ate.stats.median);
-    out.Set("ate_std", ate.stats.std);
-    out.Set("ate_min", ate.stats.min);
-    out.Set("ate_max", ate.stats.max);
-    out.Set("rpe_delta", rpe_options.delta);
-    out.Set("rpe_delta_unit", delta_unit);
-    out.Set("rpe_num_pairs", static_cast<int64_t>(rpe.pairs.size()));
-    out.Set("rpe_trans_rmse", rpe.translation.rmse);
-    out.Set("rpe_trans_mean", rpe.translation.mean);
-    out.Set("rpe_rot_rmse_deg", rpe.rotation_deg.rmse);
-    out.Set("rpe_rot_mean_deg", rpe.rotation_deg.mean);
-    out.Set("kitti_num_segments", static_cast<int64_t>(kitti.num_segments));
-    out.Set("kitti_t_rel_pct", kitti.t_rel_pct);
-    out.Set("kitti_r_rel_deg_per_100m", kitti.r_rel_deg_per_100m);
-    out.Set("snippet_num", static_cast<int64_t>(snippet.errors.size()));
-    out.Set("snippet_ate_mean", snippet.mean);
-    out.Set("snippet_ate_std", snippet.std);
-    std::cout << out.Dump() << "\n";
+    std::cout << apps::EvaluationToJson(evaluation).Dump() << "\n";
     return 0;
   }
 

@@ -1,0 +1,88 @@
+#include "apps/common/evaluation.h"
+
+#include <cmath>
+#include <cstdio>
+
+namespace dfo::apps {
+
+std::string DeltaUnitName(DeltaUnit unit) { return unit == DeltaUnit::kFrames ? "frames" : "m"; }
+
+std::string FormatFixed(double v, int decimals) {
+  if (!std::isfinite(v)) return "n/a";
+  char buf[64];
+  std::snprintf(buf, sizeof(buf), "%.*f", decimals, v);
+  return buf;
+}
+
+TrajectoryEvaluation EvaluateTrajectory(const Trajectory& ground_truth, const Trajectory& estimate,
+                                        const TrajectoryEvaluationOptions& options) {
+  TrajectoryEvaluation e;
+  e.options = options;
+  e.num_gt_poses = ground_truth.size();
+  e.num_est_poses = estimate.size();
+  e.format = "frames";
+  TrajectoryAlignmentOptions align;
+  align.type = options.alignment;
+  // Every metric uses the aligned estimate, as evo_ape / evo_rpe with -a / -as do.
+  e.alignment = AlignTrajectory(estimate, ground_truth, align);
+  e.ground_truth = ground_truth;
+  const Trajectory& aligned = e.alignment.aligned_estimate;
+  e.ate = ComputeAte(ground_truth, aligned);
+  e.rpe = ComputeRpe(ground_truth, aligned, options.rpe);
+  e.kitti = ComputeKittiOdometryErrors(ground_truth, aligned);
+  e.snippet = ComputeSnippetAte(ground_truth, aligned);
+  e.gt_path_length_m = ground_truth.PathLength();
+  return e;
+}
+
+io::JsonValue EvaluationToJson(const TrajectoryEvaluation& e) {
+  io::JsonValue out = io::JsonValue::Object();
+  out.Set("num_poses", static_cast<int64_t>(e.ground_truth.size()));
+  out.Set("num_gt_poses", static_cast<int64_t>(e.num_gt_poses));
+  out.Set("num_est_poses", static_cast<int64_t>(e.num_est_poses));
+  out.Set("format", e.format);
+  out.Set("alignment", AlignmentTypeName(e.options.alignment));
+  out.Set("scale", e.alignment.transform.scale);
+  out.Set("ate_rmse", e.ate.stats.rmse);
+  out.Set("ate_mean", e.ate.stats.mean);
+  out.Set("ate_median", e.ate.stats.median);
+  out.Set("ate_std", e.ate.stats.std);
+  out.Set("ate_min", e.ate.stats.min);
+  out.Set("ate_max", e.ate.stats.max);
+  out.Set("rpe_delta", e.options.rpe.delta);
+  out.Set("rpe_delta_unit", DeltaUnitName(e.options.rpe.delta_unit));
+  out.Set("rpe_num_pairs", static_cast<int64_t>(e.rpe.pairs.size()));
+  out.Set("rpe_trans_rmse", e.rpe.translation.rmse);
+  out.Set("rpe_trans_mean", e.rpe.translation.mean);
+  out.Set("rpe_rot_rmse_deg", e.rpe.rotation_deg.rmse);
+  out.Set("rpe_rot_mean_deg", e.rpe.rotation_deg.mean);
+  out.Set("kitti_num_segments", static_cast<int64_t>(e.kitti.num_segments));
+  out.Set("kitti_t_rel_pct", e.kitti.t_rel_pct);
+  out.Set("kitti_r_rel_deg_per_100m", e.kitti.r_rel_deg_per_100m);
+  out.Set("snippet_num", static_cast<int64_t>(e.snippet.errors.size()));
+  out.Set("snippet_ate_mean", e.snippet.mean);
+  out.Set("snippet_ate_std", e.snippet.std);
+  return out;
+}
+
+std::vector<std::string> EvaluationPlotLines(const TrajectoryEvaluation& e) {
+  std::vector<std::string> lines;
+  lines.push_back("ATE rmse " + FormatFixed(e.ate.stats.rmse, 4) + " m, mean " +
+                  FormatFixed(e.ate.stats.mean, 4) + " m, max " + FormatFixed(e.ate.stats.max, 4) +
+                  " m   (" + std::to_string(e.ground_truth.size()) + " poses, " +
+                  AlignmentTypeName(e.options.alignment) + " alignment, scale " +
+                  FormatFixed(e.alignment.transform.scale, 4) + ")");
+  const bool frames = e.options.rpe.delta_unit == DeltaUnit::kFrames;
+  std::string line2 = "RPE (" + FormatFixed(e.options.rpe.delta, frames ? 0 : 3) + " " +
+                      DeltaUnitName(e.options.rpe.delta_unit) + ") rmse " +
+                      FormatFixed(e.rpe.translation.rmse, 4) + " m, " +
+                      FormatFixed(e.rpe.rotation_deg.rmse, 4) + " deg";
+  if (e.kitti.num_segments > 0) {
+    line2 += "   KITTI t_rel " + FormatFixed(e.kitti.t_rel_pct, 2) + " %, r_rel " +
+             FormatFixed(e.kitti.r_rel_deg_per_100m, 3) + " deg/100m";
+  }
+  lines.push_back(line2);
+  return lines;
+}
+
+}  // namespace dfo::apps

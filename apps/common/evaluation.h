@@ -1,0 +1,71 @@
+// Trajectory evaluation shared by the apps: one function computes every figure dfo reports for an
+// estimate against its ground truth (ATE after Umeyama alignment, RPE, KITTI t_rel / r_rel,
+// SfMLearner snippet ATE), one writes them as the JSON object of `dfo_eval traj --json` (also the
+// `frontend` object of dfo_run's summary.json), one gives the text lines of the trajectory plot.
+//
+// Keys of the JSON object (numbers; NaN figures, e.g. KITTI on a path shorter than 100 m, are
+// written as null):
+//   num_poses, num_gt_poses, num_est_poses, format, alignment, scale,
+//   ate_rmse, ate_mean, ate_median, ate_std, ate_min, ate_max,
+//   rpe_delta, rpe_delta_unit, rpe_num_pairs, rpe_trans_rmse, rpe_trans_mean, rpe_rot_rmse_deg,
+//   rpe_rot_mean_deg, kitti_num_segments, kitti_t_rel_pct, kitti_r_rel_deg_per_100m,
+//   snippet_num, snippet_ate_mean, snippet_ate_std
+#ifndef DFO_APPS_COMMON_EVALUATION_H_
+#define DFO_APPS_COMMON_EVALUATION_H_
+
+#include <string>
+#include <vector>
+
+#include "dfo_core/alignment.h"
+#include "dfo_core/metrics.h"
+#include "dfo_core/trajectory.h"
+#include "dfo_io/json.h"
+
+namespace dfo::apps {
+
+// What to compute.
+struct TrajectoryEvaluationOptions {
+  // Alignment of the estimate onto the ground truth before every metric (sim3 for monocular).
+  AlignmentType alignment = AlignmentType::kSim3;
+  // RPE pairs (evo_rpe's defaults: delta 1 frame, consecutive pairs).
+  RpeOptions rpe;
+};
+
+// Every figure of one evaluation. The two trajectories it was computed from are associated
+// (pose i of one corresponds to pose i of the other).
+struct TrajectoryEvaluation {
+  TrajectoryEvaluationOptions options;
+  size_t num_gt_poses = 0;   // poses in the ground-truth input, before association
+  size_t num_est_poses = 0;  // poses in the estimate input, before association
+  std::string format;        // "kitti" | "tum" | "frames": where the pairing came from
+  TrajectoryAlignment alignment;  // the fitted transform and the aligned estimate
+  Trajectory ground_truth;        // the associated ground truth
+  AteResult ate;
+  RpeResult rpe;
+  KittiOdometryResult kitti;
+  SnippetAteResult snippet;
+  double gt_path_length_m = 0.0;  // length of the ground-truth path (world units)
+};
+
+// Aligns `estimate` onto `ground_truth` (already associated: equal sizes) and computes every
+// metric on the aligned estimate. Throws InputError on different sizes or degenerate geometry
+// (fewer than 2 distinct positions, see UmeyamaAlignment) and ConfigError on bad RPE options.
+TrajectoryEvaluation EvaluateTrajectory(const Trajectory& ground_truth, const Trajectory& estimate,
+                                        const TrajectoryEvaluationOptions& options = {});
+
+// The `dfo_eval traj --json` object of an evaluation (keys in the file comment, in that order).
+io::JsonValue EvaluationToJson(const TrajectoryEvaluation& evaluation);
+
+// Two lines for a trajectory plot: ATE figures with the alignment, then RPE (and KITTI t_rel /
+// r_rel when the path allows).
+std::vector<std::string> EvaluationPlotLines(const TrajectoryEvaluation& evaluation);
+
+// Name of an RPE delta unit as dfo_eval spells it: "frames" | "m".
+std::string DeltaUnitName(DeltaUnit unit);
+
+// "%.<decimals>f" of v, "n/a" when v is not finite.
+std::string FormatFixed(double v, int decimals = 6);
+
+}  // namespace dfo::apps
+
+#endif  // DFO_APPS_COMMON_EVALUATION_H_
