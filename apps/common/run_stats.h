@@ -1,0 +1,44 @@
+// Small measurement helpers for the apps: timing statistics (median, 95th percentile) of per-frame
+// stage times, and the process's peak resident memory.
+#ifndef DFO_APPS_COMMON_RUN_STATS_H_
+#define DFO_APPS_COMMON_RUN_STATS_H_
+
+#include <chrono>
+#include <cstddef>
+#include <vector>
+
+#include "dfo_io/json.h"
+
+namespace dfo::apps {
+
+// The p-th percentile (p in [0, 100]) of `values` with linear interpolation between the closest
+// ranks (numpy.percentile's default). NaN for an empty list; NaN values are ignored.
+double Percentile(std::vector<double> values, double p);
+
+// Statistics of a list of durations in milliseconds.
+struct TimingSummary {
+  size_t count = 0;
+  double median_ms = 0.0;  // NaN when count == 0
+  double p95_ms = 0.0;     // 95th percentile, NaN when count == 0
+  double mean_ms = 0.0;    // NaN when count == 0
+  double max_ms = 0.0;     // NaN when count == 0
+};
+
+// Summarises `times_ms` (NaN entries, e.g. stages that did not run for a frame, are skipped).
+TimingSummary SummariseTimes(const std::vector<double>& times_ms);
+
+// {"median": .., "p95": .., "mean": .., "max": ..} in milliseconds (null when no sample).
+io::JsonValue TimingToJson(const TimingSummary& summary);
+
+// Peak resident set size of this process in MiB (getrusage ru_maxrss), 0 when unknown.
+double PeakRssMb();
+
+// Milliseconds since `start` on the steady clock.
+inline double MillisecondsSince(std::chrono::steady_clock::time_point start) {
+  return std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start)
+      .count();
+}
+
+}  // namespace dfo::apps
+
+#endif  // DFO_APPS_COMMON_RUN_STATS_H_
