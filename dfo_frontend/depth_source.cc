@@ -1,0 +1,94 @@
+#include "dfo_frontend/depth_source.h"
+
+#include <cmath>
+#include <sstream>
+
+#include "dfo_core/error.h"
+
+namespace dfo {
+
+double DepthPyramid::MeanDepth(int l) const {
+  DFO_CHECK(l >= 0 && l < num_levels()) << l;
+  double sum = 0.0;
+  size_t n = 0;
+  for (float d : levels[l].vector()) {
+    if (d > 0.0f) {
+      sum += d;
+      ++n;
+    }
+  }
+  return n > 0 ? sum / static_cast<double>(n) : 0.0;
+}
+
+int DepthPyramid::NumValid(int l) const {
+  DFO_CHECK(l >= 0 && l < num_levels()) << l;
+  int n = 0;
+  for (float d : levels[l].vector()) n += d > 0.0f ? 1 : 0;
+  return n;
+}
+
+ImageF DownsampleDepthHalf(const ImageF& depth_m) {
+  DFO_CHECK(depth_m.channels() == 1 && depth_m.width() >= 2 && depth_m.height() >= 2)
+      << depth_m.width() << "x" << depth_m.height() << "x" << depth_m.channels();
+  const int w = depth_m.width() / 2, h = depth_m.height() / 2;
+  ImageF out(w, h, 1);
+  for (int y = 0; y < h; ++y) {
+    for (int x = 0; x < w; ++x) {
+      float sum = 0.0f;
+      int n = 0;
+      for (int dy = 0; dy < 2; ++dy) {
+        for (int dx = 0; dx < 2; ++dx) {
+          const float d = depth_m(2 * x + dx, 2 * y + dy);
+          if (std::isfinite(d) && d > 0.0f) {
+            sum += d;
+            ++n;
+          }
+        }
+      }
+      out(x, y) = n > 0 ? sum / static_cast<float>(n) : 0.0f;
+    }
+  }
+  return out;
+}
+
+DepthPyramid GroundTruthDepthSource::Compute(const Frame& frame, int num_levels) {
+  DFO_CHECK(num_levels >= 1) << num_levels;
+  if (frame.depth_m.empty()) {
+    throw InputError("frame " + std::to_string(frame.index) +
+                     ": depth source 'gt' needs a ground-truth depth map (Frame::depth_m), "
+                     "but the frame has none");
+  }
+  if (frame.depth_m.channels() != 1 || frame.depth_m.width() != frame.image.width() ||
+      frame.depth_m.height() != frame.image.height()) {
+    std::ostringstream msg;
+    msg << "frame " << frame.index << ": depth map is " << frame.depth_m.width() << "x"
+        << frame.depth_m.height() << "x" << frame.depth_m.channels() << " but the image is "
+        << frame.image.width() << "x" << frame.image.height()
+        << "; expected a 1-channel depth map of the image's size";
+    throw InputError(msg.str());
+  }
+  DepthPyramid out;
+  ImageF level0 = frame.depth_m;
+  for (float& d : level0.vector()) {
+    if (!std::isfinite(d) || d < 0.0f) d = 0.0f;
+  }
+  out.levels.push_back(std::move(level0));
+  for (int l = 1; l < num_levels; ++l) {
+    const ImageF& prev = out.levels.back();
+    if (prev.width() < 2 || prev.height() < 2) {
+      std::ostringstream msg;
+      msg << "frame " << frame.index << ": a " << frame.depth_m.width() << "x"
+          << frame.depth_m.height() << " depth map cannot have " << num_levels << " levels";
+      throw InputError(msg.str());
+    }
+    out.levels.push_back(DownsampleDepthHalf(prev));
+  }
+  return out;
+}
+
+std::unique_ptr<DepthSource> MakeDepthSource(const std::string& name) {
+  if (name == "gt") return std::make_unique<GroundTruthDepthSource>();
+  throw ConfigError("frontend.depth = " + name + " violates one of {gt}");
+}
+
+}  // namespace dfo

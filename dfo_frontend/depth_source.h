@@ -1,0 +1,60 @@
+// Depth pyramids for direct alignment, and the sources that compute them.
+//
+// A DepthSource gives, per pyramid level, a depth map in metres (0 = invalid) aligned with the
+// feature level of the same index. Now: ground truth (Frame::depth_m, e.g. the synthetic depth_0
+// or TUM depth PNGs); later the depth network plugs into the same interface.
+#ifndef DFO_FRONTEND_DEPTH_SOURCE_H_
+#define DFO_FRONTEND_DEPTH_SOURCE_H_
+
+#include <memory>
+#include <string>
+#include <vector>
+
+#include "dfo_core/frame.h"
+#include "dfo_core/image.h"
+
+namespace dfo {
+
+// Depth maps of one frame, finest first; level l has size (width >> l) x (height >> l).
+struct DepthPyramid {
+  std::vector<ImageF> levels;  // metres, 0 = invalid (never NaN/inf: sources replace them by 0)
+  int num_levels() const { return static_cast<int>(levels.size()); }
+  // Mean of the valid (> 0) depths of level l; 0 when the level has none.
+  double MeanDepth(int l) const;
+  // Number of valid depths of level l.
+  int NumValid(int l) const;
+};
+
+// Halves a depth map by validity-aware 2x2 averaging: the output is the mean of the valid
+// (finite, > 0) input depths of the 2x2 block, 0 when none is valid (an invalid 0 is never
+// averaged in). Odd last row/column dropped as DownsampleHalf. Requires a 1-channel map >= 2x2.
+ImageF DownsampleDepthHalf(const ImageF& depth_m);
+
+// Computes depth pyramids from frames. Implementations must be deterministic.
+class DepthSource {
+ public:
+  virtual ~DepthSource() = default;
+  // Short name used in configurations ("gt", ...).
+  virtual std::string name() const = 0;
+  // The depth pyramid of `frame` with `num_levels` levels. Throws InputError when the source
+  // cannot produce depth for this frame (e.g. "gt" and a frame without depth, or a depth map
+  // whose size differs from the image's). A map full of zeros or NaN is NOT an error: it gives
+  // an all-invalid pyramid, and tracking reports the frame lost.
+  virtual DepthPyramid Compute(const Frame& frame, int num_levels) = 0;
+};
+
+// Ground-truth depth: Frame::depth_m (non-finite and negative values become 0 = invalid), then
+// DownsampleDepthHalf per level.
+class GroundTruthDepthSource : public DepthSource {
+ public:
+  std::string name() const override { return "gt"; }
+  DepthPyramid Compute(const Frame& frame, int num_levels) override;
+};
+
+// Creates the depth source called `name` ("gt"). Throws ConfigError naming the value and the
+// known names otherwise.
+std::unique_ptr<DepthSource> MakeDepthSource(const std::string& name);
+
+}  // namespace dfo
+
+#endif  // DFO_FRONTEND_DEPTH_SOURCE_H_

@@ -1,0 +1,188 @@
+#include "dfo_frontend/feature_source.h"
+
+#include <algorithm>
+#include <cmath>
+#include <sstream>
+
+#include "dfo_core/error.h"
+#include "dfo_core/image_pyramid.h"
+#include "dfo_frontend/internal/check_util.h"
+
+namespace dfo {
+
+FeatureLevel::FeatureLevel(int width_, int height_, int channels_, const PinholeCamera& camera_)
+    : width(width_), height(height_), channels(channels_), camera(camera_) {
+  DFO_CHECK(width >= 0 && height >= 0 && channels >= 1)
+      << width << "x" << height << "x" << channels;
+  data.assign(static_cast<size_t>(width) * height * channels, 0.0f);
+}
+
+void FeatureLevel::ZScore() {
+  const size_t n = static_cast<size_t>(width) * height;
+  if (n == 0) return;
+  for (int c = 0; c < channels; ++c) {
+    float* v = Channel(c);
+    // Two passes in double: the mean first, then the variance about it (no cancellation).
+    double sum = 0.0;
+    for (size_t i = 0; i < n; ++i) sum += v[i];
+    const double mean = sum / static_cast<double>(n);
+    double sq = 0.0;
+    for (size_t i = 0; i < n; ++i) sq += (v[i] - mean) * (v[i] - mean);
+    const double stddev = std::sqrt(sq / static_cast<double>(n));
+    const float m = static_cast<float>(mean);
+    const float inv = stddev > 1e-12 ? static_cast<float>(1.0 / stddev) : 0.0f;
+    for (size_t i = 0; i < n; ++i) v[i] = (v[i] - m) * inv;
+  }
+}
+
+void HandmadeFeatureOptions::Check() const {
+  internal::CheckOption(descriptor == "intensity_gradients" || descriptor == "rich",
+                        "handmade.descriptor", descriptor,
+                        "one of {intensity_gradients, rich}");
+  internal::CheckOption(std::isfinite(blur_sigma_px) && blur_sigma_px >= 0.0 &&
+                            blur_sigma_px <= 3.0,
+                        "handmade.blur_sigma_px", blur_sigma_px, "in [0, 3]");
+}
+
+namespace {
+
+// Grey image in [0, 1] from a 1- or 3-channel 8-bit image (ITU-R BT.601 weights, as the
+// synthetic renderer's grey).
+ImageF ToGray(const ImageU8& image, int frame_index) {
+  if (image.channels() != 1 && image.channels() != 3) {
+    std::ostringstream msg;
+    msg << "frame " << frame_index << ": image has " << image.channels()
+        << " channels; expected 1 (grey) or 3 (RGB)";
+    throw InputError(msg.str());
+  }
+  ImageF gray(image.width(), image.height(), 1);
+  const size_t n = static_cast<size_t>(image.width()) * image.height();
+  const uint8_t* src = image.data();
+  float* dst = gray.data();
+  if (image.channels() == 1) {
+    for (size_t i = 0; i < n; ++i) dst[i] = src[i] * (1.0f / 255.0f);
+  } else {
+    for (size_t i = 0; i < n; ++i) {
+      dst[i] = (0.299f * src[3 * i] + 0.587f * src[3 * i + 1] + 0.114f * src[3 * i + 2]) *
+               (1.0f / 255.0f);
+    }
+  }
+  return gray;
+}
+
+// Separable Gaussian blur with clamped borders, radius ceil(3 sigma).
+ImageF GaussianBlur(const ImageF& image, double sigma) {
+  const int radius = static_cast<int>(std::ceil(3.0 * sigma));
+  std::vector<float> kernel(2 * radius + 1);
+  double total = 0.0;
+  for (int k = -radius; k <= radius; ++k) {
+    const double w = std::exp(-0.5 * k * k / (sigma * sigma));
+    kernel[k + radius] = static_cast<float>(w);
+    total += w;
+  }
+  for (float& w : kernel) w = static_cast<float>(w / total);
+  const int w = image.width(), h = image.height();
+  ImageF tmp(w, h), out(w, h);
+  for (int y = 0; y < h; ++y) {
+    for (int x = 0; x < w; ++x) {
+      float s = 0.0f;
+      for (int k = -radius; k <= radius; ++k) {
+        const int xx = std::min(std::max(x + k, 0), w - 1);
+        s += kernel[k + radius] * image(xx, y);
+      }
+      tmp(x, y) = s;
+    }
+  }
+  for (int y = 0; y < h; ++y) {
+    for (int x = 0; x < w; ++x) {
+      float s = 0.0f;
+      for (int k = -radius; k <= radius; ++k) {
+        const int yy = std::min(std::max(y + k, 0), h - 1);
+        s += kernel[k + radius] * tmp(x, yy);
+      }
+      out(x, y) = s;
+    }
+  }
+  return out;
+}
+
+// 3x3 box mean with clamped borders.
+ImageF BoxBlur3(const ImageF& image) {
+  const int w = image.width(), h = image.height();
+  ImageF out(w, h);
+  for (int y = 0; y < h; ++y) {
+    for (int x = 0; x < w; ++x) {
+      float s = 0.0f;
+      for (int dy = -1; dy <= 1; ++dy) {
+        const int yy = std::min(std::max(y + dy, 0), h - 1);
+        for (int dx = -1; dx <= 1; ++dx) {
+          s += image(std::min(std::max(x + dx, 0), w - 1), yy);
+        }
+      }
+      out(x, y) = s * (1.0f / 9.0f);
+    }
+  }
+  return out;
+}
+
+void CopyChannel(const ImageF& image, FeatureLevel* level, int c) {
+  std::copy(image.data(), image.data() + image.size(), level->Channel(c));
+}
+
+}  // namespace
+
+HandmadeFeatureSource::HandmadeFeatureSource(const HandmadeFeatureOptions& options)
+    : options_(options) {
+  options_.Check();
+}
+
+int HandmadeFeatureSource::num_channels() const {
+  return options_.descriptor == "rich" ? 5 : 3;
+}
+
+FeaturePyramid HandmadeFeatureSource::Compute(const Frame& frame, int num_levels) {
+  DFO_CHECK(num_levels >= 1) << num_levels;
+  if (frame.image.empty()) {
+    throw InputError("frame " + std::to_string(frame.index) + ": the image is empty");
+  }
+  ImagePyramidOptions pyramid_options;
+  pyramid_options.num_levels = num_levels;
+  pyramid_options.min_level_size = 4;
+  ImagePyramid pyramid;
+  try {
+    pyramid = ImagePyramid(ToGray(frame.image, frame.index), frame.camera, pyramid_options);
+  } catch (const ConfigError&) {
+    throw;
+  } catch (const InputError& e) {
+    throw InputError("frame " + std::to_string(frame.index) + ": " + e.what());
+  }
+  FeaturePyramid out;
+  const int channels = num_channels();
+  for (int l = 0; l < num_levels; ++l) {
+    ImageF gray = pyramid.level(l);
+    if (options_.blur_sigma_px > 0.0) gray = GaussianBlur(gray, options_.blur_sigma_px);
+    const ImageGradients g = ComputeGradients(gray);
+    FeatureLevel level(gray.width(), gray.height(), channels, pyramid.camera(l));
+    CopyChannel(gray, &level, 0);
+    CopyChannel(g.gx, &level, 1);
+    CopyChannel(g.gy, &level, 2);
+    if (channels == 5) {
+      CopyChannel(BoxBlur3(gray), &level, 3);
+      float* mag = level.Channel(4);
+      for (size_t i = 0; i < gray.size(); ++i) {
+        mag[i] = std::sqrt(g.gx.data()[i] * g.gx.data()[i] + g.gy.data()[i] * g.gy.data()[i]);
+      }
+    }
+    level.ZScore();
+    out.levels.push_back(std::move(level));
+  }
+  return out;
+}
+
+std::unique_ptr<FeatureSource> MakeFeatureSource(const std::string& name,
+                                                 const HandmadeFeatureOptions& handmade) {
+  if (name == "handmade") return std::make_unique<HandmadeFeatureSource>(handmade);
+  throw ConfigError("frontend.features = " + name + " violates one of {handmade}");
+}
+
+}  // namespace dfo

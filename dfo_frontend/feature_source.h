@@ -1,0 +1,111 @@
+// Feature pyramids for direct feature-metric alignment, and the sources that compute them.
+//
+// A FeatureSource turns a Frame into a FeaturePyramid: per level (level 0 = working resolution,
+// each further level halves width and height as PinholeCamera::PyramidLevel), a C-channel float
+// feature map stored planar (channel-major, C x H x W) with the level's camera and an optional
+// selection mask. The tracker only sees this interface, so the hand-made features here and the
+// learned networks (later, behind a pimpl) are interchangeable.
+#ifndef DFO_FRONTEND_FEATURE_SOURCE_H_
+#define DFO_FRONTEND_FEATURE_SOURCE_H_
+
+#include <cstdint>
+#include <memory>
+#include <string>
+#include <vector>
+
+#include "dfo_core/camera.h"
+#include "dfo_core/frame.h"
+#include "dfo_core/image.h"
+
+namespace dfo {
+
+// One level of a feature pyramid.
+struct FeatureLevel {
+  int width = 0;     // pixels
+  int height = 0;    // pixels
+  int channels = 0;  // C >= 1
+  // Planar features: value of channel c at pixel (x, y) is data[(c * height + y) * width + x].
+  std::vector<float> data;
+  // Intrinsics of this level (camera.width == width, camera.height == height).
+  PinholeCamera camera;
+  // Optional selection mask, width * height values row-major; non-zero = the pixel may be
+  // selected as a patch centre. Empty = no mask (the tracker selects high-gradient pixels).
+  std::vector<uint8_t> mask;
+
+  // Allocates width x height x channels zeros (mask left empty).
+  FeatureLevel(int width, int height, int channels, const PinholeCamera& camera);
+  FeatureLevel() = default;
+
+  // Start of channel c (row-major width x height floats).
+  float* Channel(int c) { return data.data() + static_cast<size_t>(c) * width * height; }
+  const float* Channel(int c) const {
+    return data.data() + static_cast<size_t>(c) * width * height;
+  }
+  // Value of channel c at integer pixel (x, y).
+  float At(int c, int x, int y) const {
+    return data[(static_cast<size_t>(c) * height + y) * width + x];
+  }
+  bool has_mask() const { return !mask.empty(); }
+
+  // Normalises every channel to zero mean and unit standard deviation over the level (the DFO
+  // paper's per-channel, per-level z-scoring); a constant channel becomes all zeros.
+  void ZScore();
+};
+
+// The levels of one frame's features, finest first.
+struct FeaturePyramid {
+  std::vector<FeatureLevel> levels;
+  int num_levels() const { return static_cast<int>(levels.size()); }
+};
+
+// Computes feature pyramids from frames. Implementations must be deterministic.
+class FeatureSource {
+ public:
+  virtual ~FeatureSource() = default;
+  // Short name used in configurations ("handmade", ...).
+  virtual std::string name() const = 0;
+  // The pyramid of `frame` with `num_levels` levels (>= 1). Level l has size
+  // (width >> l) x (height >> l) and camera frame.camera.PyramidLevel(l). Features are z-scored
+  // per channel and level. Throws InputError when the frame is empty or its image size differs
+  // from its camera's, or when the coarsest level would be smaller than 4 x 4 pixels.
+  virtual FeaturePyramid Compute(const Frame& frame, int num_levels) = 0;
+};
+
+// Options of the hand-made feature source.
+struct HandmadeFeatureOptions {
+  // Which channels to compute from the grey image of each level:
+  //  "intensity_gradients": intensity, d/dx, d/dy (3 channels, the minimum the issue asks for);
+  //  "rich": those three plus a box-blurred (3x3) intensity and the gradient magnitude (5).
+  std::string descriptor = "intensity_gradients";
+  // Standard deviation (pixels) of a Gaussian blur of each level's grey image before the
+  // channels are computed; 0 = none. In [0, 3]. Mild smoothing widens the convergence basin
+  // (the paper smooths its feature maps with a 3x3 Gaussian as well).
+  double blur_sigma_px = 0.0;
+
+  // Throws ConfigError naming the field, its value and the rule.
+  void Check() const;
+};
+
+// Hand-made features: each level's grey image (2x2-average pyramid of the frame converted to
+// grey, 0..1) and its central-difference gradients, each channel z-scored per level.
+class HandmadeFeatureSource : public FeatureSource {
+ public:
+  // Throws ConfigError when options.Check() fails.
+  explicit HandmadeFeatureSource(const HandmadeFeatureOptions& options = {});
+  std::string name() const override { return "handmade"; }
+  FeaturePyramid Compute(const Frame& frame, int num_levels) override;
+  // Number of channels per level for these options.
+  int num_channels() const;
+
+ private:
+  HandmadeFeatureOptions options_;
+};
+
+// Creates the feature source called `name` ("handmade"). Throws ConfigError naming the value and
+// the known names otherwise.
+std::unique_ptr<FeatureSource> MakeFeatureSource(const std::string& name,
+                                                 const HandmadeFeatureOptions& handmade = {});
+
+}  // namespace dfo
+
+#endif  // DFO_FRONTEND_FEATURE_SOURCE_H_

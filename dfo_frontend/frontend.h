@@ -1,0 +1,87 @@
+// The frontend: per frame, feature and depth pyramids, then frame-to-reference tracking with the
+// direct feature-metric tracker (tracker.h), a simple reference-switch rule, a constant-velocity
+// motion model and recovery after a loss. Synchronous and deterministic.
+//
+//   FrontendOptions options;            // hand-made features, ground-truth depth
+//   Frontend frontend(options);
+//   for (const Frame& frame : frames) {
+//     TrackedFrame tracked = frontend.Process(frame);   // pose + status of every frame
+//   }
+#ifndef DFO_FRONTEND_FRONTEND_H_
+#define DFO_FRONTEND_FRONTEND_H_
+
+#include <memory>
+#include <string>
+
+#include "dfo_core/frame.h"
+#include "dfo_frontend/depth_source.h"
+#include "dfo_frontend/feature_source.h"
+#include "dfo_frontend/reference_options.h"
+#include "dfo_frontend/tracker.h"
+
+namespace dfo {
+
+// Options of the frontend (YAML section "frontend"; nested structs are sub-sections).
+struct FrontendOptions {
+  // Feature source name: "handmade" (learned features arrive with the networks).
+  std::string features = "handmade";
+  // Depth source name: "gt" (Frame::depth_m; learned depth arrives with the networks).
+  std::string depth = "gt";
+  // Options of the hand-made features (used when features == "handmade").
+  HandmadeFeatureOptions handmade;
+  // The tracker (levels, patches, iterations, hypotheses, status thresholds).
+  TrackerOptions tracker;
+  // When a tracked frame becomes the new reference.
+  ReferenceOptions reference;
+  // Threads for the frontend's own work, >= 1. The tracker is currently single-threaded (its
+  // per-level problems are small); the value is validated and kept for the learned sources.
+  int num_threads = 1;
+
+  // Throws ConfigError naming the field, its value and the rule (nested options included, e.g.
+  // "frontend.tracker.patch_size = 4 violates odd").
+  void Check() const;
+};
+
+// Wall time of the stages of the last Process call, milliseconds.
+struct FrontendTimings {
+  double features_ms = 0.0;  // feature pyramid
+  double depth_ms = 0.0;     // depth pyramid
+  double tracking_ms = 0.0;  // alignment, including setting a new reference (points, Jacobians)
+};
+
+// Frame-to-reference visual odometry frontend.
+class Frontend {
+ public:
+  // Throws ConfigError on bad options (FrontendOptions::Check, unknown source names).
+  explicit Frontend(const FrontendOptions& options);
+  ~Frontend();
+  Frontend(const Frontend&) = delete;
+  Frontend& operator=(const Frontend&) = delete;
+
+  // Processes the next frame. Tracking failure is a status (kLost: the pose stays at the last
+  // good pose and the next frame becomes a fresh reference, status kReference), never a throw.
+  // Bad input throws InputError naming the frame index: an empty image, an image whose size
+  // differs from the camera's, a depth map of another size, a missing depth map when the depth
+  // source is "gt", a camera that differs from the reference's.
+  TrackedFrame Process(const Frame& frame);
+
+  // Timings of the last Process call.
+  const FrontendTimings& last_timings() const;
+  // Forgets the reference, the motion model and the pose (the next frame starts at identity).
+  void Reset();
+
+  const FrontendOptions& options() const;
+
+ private:
+  struct State;
+  FrontendOptions options_;
+  std::unique_ptr<FeatureSource> features_;
+  std::unique_ptr<DepthSource> depth_;
+  Tracker tracker_;
+  std::unique_ptr<State> state_;
+  FrontendTimings timings_;
+};
+
+}  // namespace dfo
+
+#endif  // DFO_FRONTEND_FRONTEND_H_

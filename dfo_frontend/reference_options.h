@@ -1,0 +1,26 @@
+// The simple reference-switch rule of the frontend, until the backend's keyframe manager exists.
+#ifndef DFO_FRONTEND_REFERENCE_OPTIONS_H_
+#define DFO_FRONTEND_REFERENCE_OPTIONS_H_
+
+namespace dfo {
+
+// When a successfully tracked frame becomes the new reference (LSD-SLAM / DSO style rules; any
+// one that fires switches). Lost tracking always restarts from a fresh reference.
+struct ReferenceOptions {
+  // Switch when |t_ref_cur| / mean depth of the reference exceeds this, > 0 (the backend's
+  // keyframe rule s_t of DESIGN.md; larger values keep a reference longer).
+  double translation_ratio = 0.15;
+  // Switch when the rotation from the reference exceeds this many degrees, > 0.
+  double rotation_deg = 10.0;
+  // Switch when the finest-level inlier ratio falls below this, in [0, 1].
+  double min_inlier_ratio = 0.6;
+  // Switch after this many frames tracked against the same reference, >= 1 (1 = frame to frame).
+  int max_interval = 10;
+
+  // Throws ConfigError naming the field ("reference.max_interval = 0 violates >= 1").
+  void Check() const;
+};
+
+}  // namespace dfo
+
+#endif  // DFO_FRONTEND_REFERENCE_OPTIONS_H_
