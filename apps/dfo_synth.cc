@@ -148,11 +148,11 @@ int main(int argc, char** argv) {
     args.write.Check();
     const dfo::SyntheticSequence sequence(args.synth);
     const dfo::PinholeCamera& cam = sequence.camera();
-    std::printf("dfo_synth: seed %llu, %d frames of %dx%d, fx = fy = %.3f, cx = %.1f, cy = %.1f, "
-                "%zu boxes, %d threads\n",
-                static_cast<unsigned long long>(args.synth.seed), sequence.num_frames(), cam.width,
-                cam.height, cam.fx, cam.cx, cam.cy, sequence.world().boxes.size(),
-                args.write.num_threads);
+    std::printf(
+        "dfo_synth: seed %llu, %d frames of %dx%d, fx = fy = %.3f, cx = %.1f, cy = %.1f, "
+        "%zu boxes, %d threads\n",
+        static_cast<unsigned long long>(args.synth.seed), sequence.num_frames(), cam.width,
+        cam.height, cam.fx, cam.cx, cam.cy, sequence.world().boxes.size(), args.write.num_threads);
     std::fflush(stdout);
     const auto summary = dfo::io::WriteSyntheticSequence(
         sequence, args.write, [](const dfo::io::SynthWriteProgress& p) {

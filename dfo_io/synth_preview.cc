@@ -3,11 +3,10 @@
 #include <algorithm>
 #include <cmath>
 #include <cstring>
-#include <sstream>
-#include <vector>
-
 #include <opencv2/core.hpp>
 #include <opencv2/imgproc.hpp>
+#include <sstream>
+#include <vector>
 
 #include "dfo_core/error.h"
 #include "dfo_io/image_io.h"
@@ -189,14 +188,15 @@ ImageU8 RenderSyntheticPreview(const SyntheticSequence& sequence, const SynthPre
                                             s.z_m - off * std::sin(s.heading_rad)))));
     }
     const auto thick = [&](double metres) { return std::max(1, static_cast<int>(metres * scale)); };
-    cv::polylines(map, centre, false, cv::Scalar(150, 155, 160), thick(2 * synthetic::kSidewalkOuterM),
-                  cv::LINE_AA, shift);
+    cv::polylines(map, centre, false, cv::Scalar(150, 155, 160),
+                  thick(2 * synthetic::kSidewalkOuterM), cv::LINE_AA, shift);
     cv::polylines(map, centre, false, cv::Scalar(80, 80, 82), thick(2 * synthetic::kKerbInnerM),
                   cv::LINE_AA, shift);
     // Boxes.
     for (const auto& box : sequence.world().boxes) {
       std::vector<cv::Point> poly;
-      for (const auto& c : box.FootprintCorners()) poly.push_back(fixed(px(to_world_xz(c.x(), c.y()))));
+      for (const auto& c : box.FootprintCorners())
+        poly.push_back(fixed(px(to_world_xz(c.x(), c.y()))));
       const Eigen::Vector3d col = box.colour * 255.0;
       const cv::Scalar bgr(col.z(), col.y(), col.x());
       if (box.kind == synthetic::BoxKind::kBuilding) {
@@ -209,11 +209,13 @@ ImageU8 RenderSyntheticPreview(const SyntheticSequence& sequence, const SynthPre
     // Path of the camera, start and end markers, shown frames.
     std::vector<cv::Point> path;
     for (const auto& p : truth) {
-      path.push_back(fixed(px({p.world_from_cam.translation().x(), p.world_from_cam.translation().z()})));
+      path.push_back(
+          fixed(px({p.world_from_cam.translation().x(), p.world_from_cam.translation().z()})));
     }
     cv::polylines(map, path, false, cv::Scalar(255, 200, 40), 2, cv::LINE_AA, shift);
     const cv::Point2d start = px({0.0, 0.0});
-    cv::circle(map, fixed(start), 7 << shift, cv::Scalar(60, 220, 60), cv::FILLED, cv::LINE_AA, shift);
+    cv::circle(map, fixed(start), 7 << shift, cv::Scalar(60, 220, 60), cv::FILLED, cv::LINE_AA,
+               shift);
     PutText(map, "start", cv::Point(static_cast<int>(start.x) + 10, static_cast<int>(start.y) + 5),
             0.5, cv::Scalar(120, 255, 120));
     const Eigen::Vector3d last = truth.poses().back().world_from_cam.translation();
@@ -225,10 +227,10 @@ ImageU8 RenderSyntheticPreview(const SyntheticSequence& sequence, const SynthPre
       const Eigen::Vector3d c = pose.translation();
       const Eigen::Vector3d ahead = pose * Eigen::Vector3d(0, 0, 12.0);
       const cv::Point2d a = px({c.x(), c.z()}), b = px({ahead.x(), ahead.z()});
-      cv::arrowedLine(map, fixed(a), fixed(b), cv::Scalar(255, 255, 255), 2, cv::LINE_AA, shift, 0.3);
-      PutText(map, "#" + std::to_string(k + 1), cv::Point(static_cast<int>(a.x) - 22,
-                                                          static_cast<int>(a.y) - 6),
-              0.5, kText);
+      cv::arrowedLine(map, fixed(a), fixed(b), cv::Scalar(255, 255, 255), 2, cv::LINE_AA, shift,
+                      0.3);
+      PutText(map, "#" + std::to_string(k + 1),
+              cv::Point(static_cast<int>(a.x) - 22, static_cast<int>(a.y) - 6), 0.5, kText);
     }
     // Scale bar and legend.
     const double bar_m = span > 400 ? 100.0 : 50.0;

@@ -54,7 +54,8 @@ void WriteRow(std::ofstream& out, const char* label, const Eigen::Matrix<double,
 }  // namespace
 
 void SynthWriteOptions::Check() const {
-  if (output_dir.empty()) throw ConfigError("SynthWriteOptions.output_dir is empty; a folder is needed");
+  if (output_dir.empty())
+    throw ConfigError("SynthWriteOptions.output_dir is empty; a folder is needed");
   bool ok = !sequence.empty() && sequence.size() <= 16;
   for (char c : sequence) {
     ok = ok && (std::isalnum(static_cast<unsigned char>(c)) || c == '_' || c == '-');

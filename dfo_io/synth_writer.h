@@ -42,19 +42,19 @@ struct SynthWriteOptions {
 
 // Progress report, given to the callback while frames are written.
 struct SynthWriteProgress {
-  int frames_done = 0;       // frames completely written
-  int num_frames = 0;        // frames in total
-  double elapsed_s = 0.0;    // wall time since the start
-  double frames_per_s = 0.0; // frames_done / elapsed_s
-  double eta_s = 0.0;        // estimated seconds left
+  int frames_done = 0;        // frames completely written
+  int num_frames = 0;         // frames in total
+  double elapsed_s = 0.0;     // wall time since the start
+  double frames_per_s = 0.0;  // frames_done / elapsed_s
+  double eta_s = 0.0;         // estimated seconds left
 };
 
 // What was written.
 struct SynthWriteSummary {
   int num_frames = 0;
-  double seconds = 0.0;       // wall time of rendering and writing
-  std::string sequence_dir;   // <output_dir>/sequences/<NN>
-  std::string poses_path;     // <output_dir>/poses/<NN>.txt
+  double seconds = 0.0;      // wall time of rendering and writing
+  std::string sequence_dir;  // <output_dir>/sequences/<NN>
+  std::string poses_path;    // <output_dir>/poses/<NN>.txt
 };
 
 // Renders every frame of `sequence` and writes the tree above. `progress` (optional) is called

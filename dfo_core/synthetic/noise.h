@@ -100,8 +100,11 @@ inline double ValueNoise3(double x, double y, double z, uint32_t seed) {
 }
 
 // Weight in [0, 1] of a pattern component of `frequency` cycles per unit seen through a pixel
-// footprint of `footprint` units: 1 below 0.25 cycles per pixel, fading linearly to 0 at 0.5 cycles
-// per pixel (the Nyquist limit), so no component above Nyquist reaches the image.
+// footprint of `footprint` units: 1 below 0.15 cycles per pixel, fading linearly to 0 at 0.4 cycles
+// per pixel, so nothing reaches the image near or above Nyquist (0.5). The margin below Nyquist
+// keeps the images smooth enough for bilinear warping between frames (what the warp test and the
+// direct tracker do); components in 0.25..0.5 cycles per pixel are what bilinear interpolation
+// reproduces worst.
 inline double BandLimit(double frequency, double footprint) {
   const double cycles_per_pixel = frequency * footprint;
   if (cycles_per_pixel <= 0.15) return 1.0;

@@ -16,7 +16,7 @@ using Eigen::Vector3d;
 
 constexpr int kTile = 16;
 constexpr double kNearM = 0.05;
-constexpr double kMaxRangeM = 700.0;   // boxes farther than this are not drawn (fogged away)
+constexpr double kMaxRangeM = 700.0;  // boxes farther than this are not drawn (fogged away)
 constexpr double kFogDistanceM = 900.0;
 constexpr int kSky = -2;
 constexpr int kGround = -1;
@@ -28,9 +28,9 @@ const Vector3d kDirt(0.42, 0.37, 0.29);
 
 // A box ready for ray tests in this view.
 struct ViewBox {
-  int index;                // into world.boxes
+  int index;  // into world.boxes
   Eigen::Matrix3d box_from_map;
-  Vector3d origin_in_box;   // camera centre in box coordinates (relative to the box centre)
+  Vector3d origin_in_box;  // camera centre in box coordinates (relative to the box centre)
   Vector3d half;
 };
 
@@ -69,8 +69,8 @@ double FilteredCellTint(double u, double v, double wu, double wv, uint32_t seed,
        ++j) {
     const double wj = Overlap(v0, v1, j, j + 1.0) / wv;
     const double su = u + shift(j), u0 = su - 0.5 * wu, u1 = su + 0.5 * wu;
-    for (int32_t i = static_cast<int32_t>(std::floor(u0)); i <= static_cast<int32_t>(std::floor(u1));
-         ++i) {
+    for (int32_t i = static_cast<int32_t>(std::floor(u0));
+         i <= static_cast<int32_t>(std::floor(u1)); ++i) {
       sum += wj * Overlap(u0, u1, i, i + 1.0) / wu * tint(i, j);
     }
   }
@@ -374,13 +374,13 @@ class ViewRenderer {
     const double wq = scale * (std::abs(dpdu.dot(r)) + std::abs(dpdv.dot(r)));
     const double q = l + kLaneOffsetM;
     const double aq = std::abs(q);
-    *label = static_cast<uint8_t>(aq < kKerbInnerM ? SurfaceClass::kRoad
+    *label = static_cast<uint8_t>(aq < kKerbInnerM       ? SurfaceClass::kRoad
                                   : aq < kSidewalkOuterM ? SurfaceClass::kSidewalk
-                                                          : SurfaceClass::kVerge);
+                                                         : SurfaceClass::kVerge);
     // Weights of the bands across the street under the filter.
     const double w_road = BandWeight(q, wq, -kKerbInnerM, kKerbInnerM);
-    const double w_kerb = BandWeight(q, wq, kKerbInnerM, kKerbOuterM) +
-                          BandWeight(q, wq, -kKerbOuterM, -kKerbInnerM);
+    const double w_kerb =
+        BandWeight(q, wq, kKerbInnerM, kKerbOuterM) + BandWeight(q, wq, -kKerbOuterM, -kKerbInnerM);
     const double w_walk = BandWeight(q, wq, kKerbOuterM, kSidewalkOuterM) +
                           BandWeight(q, wq, -kSidewalkOuterM, -kKerbOuterM);
     const double w_verge = std::max(0.0, 1.0 - w_road - w_kerb - w_walk);
@@ -395,8 +395,8 @@ class ViewRenderer {
       const double b = 0.30 * (1.0 + 0.35 * n) * (1.0 - 0.12 * tracks);
       Vector3d asphalt(b, b, b * 1.04);
       // Dashed centre line (3 m dash, 9 m period), solid lane edges, parking bay ticks.
-      const double centre_line = BandWeight(q, wq, -0.075, 0.075) *
-                                 FilteredPulseTrain(s / 9.0, 3.0 / 9.0, ws / 9.0);
+      const double centre_line =
+          BandWeight(q, wq, -0.075, 0.075) * FilteredPulseTrain(s / 9.0, 3.0 / 9.0, ws / 9.0);
       const double edges = BandWeight(q, wq, kLaneEdgeM - 0.075, kLaneEdgeM + 0.075) +
                            BandWeight(q, wq, -kLaneEdgeM - 0.075, -kLaneEdgeM + 0.075);
       const double bays = (BandWeight(q, wq, kLaneEdgeM, kKerbInnerM) +
@@ -418,8 +418,8 @@ class ViewRenderer {
       // Paving slabs of 0.9 m with dark joints and a per-slab tint (faded when slabs shrink to
       // a pixel), over noise.
       const double slab_u = s / 0.9, slab_v = (aq - kKerbOuterM) / 0.9;
-      const double joints = FilteredPulseTrain(slab_u, 0.96, ws / 0.9) *
-                            FilteredPulseTrain(slab_v, 0.96, wq / 0.9);
+      const double joints =
+          FilteredPulseTrain(slab_u, 0.96, ws / 0.9) * FilteredPulseTrain(slab_v, 0.96, wq / 0.9);
       const double tint = 0.16 * FilteredCellTint(slab_u, slab_v, ws / 0.9, wq / 0.9, seed + 7,
                                                   q > 0 ? 1 : 2, NoShift);
       const double n = noise(0.2, 8, 0.55, seed + 9);
@@ -459,8 +459,8 @@ class ViewRenderer {
     const uint32_t seed = box.texture_seed;
     const double light = Lighting(n);
     if (hit.axis == 1) {  // roof
-      const double w = std::abs(dpdu.x()) + std::abs(dpdv.x()) + std::abs(dpdu.z()) +
-                       std::abs(dpdv.z());
+      const double w =
+          std::abs(dpdu.x()) + std::abs(dpdv.x()) + std::abs(dpdu.z()) + std::abs(dpdv.z());
       const double noise = FilteredNoise2(p.x(), p.z(), 0.2, 8, 0.6, w, seed);
       return Vector3d(0.42, 0.40, 0.40) * light * (1.0 + 0.2 * noise);
     }
@@ -476,11 +476,12 @@ class ViewRenderer {
       const double row = v / 0.075;
       const double shift = (static_cast<int64_t>(std::floor(row)) & 1) ? 0.5 : 0.0;
       const double col = u / 0.24 + shift;
-      const double brick = FilteredPulseTrain(row, 0.86, wv / 0.075) *
-                           FilteredPulseTrain(col, 0.93, wu / 0.24);
+      const double brick =
+          FilteredPulseTrain(row, 0.86, wv / 0.075) * FilteredPulseTrain(col, 0.93, wu / 0.24);
       const double tint = 0.22 * FilteredCellTint(u / 0.24, row, wu / 0.24, wv / 0.075, seed, 3,
                                                   [](int32_t j) { return (j & 1) ? 0.5 : 0.0; });
-      wall = wall * (1.0 + tint) * (0.55 + 0.45 * brick) + 0.45 * Vector3d(0.74, 0.72, 0.68) * (1.0 - brick);
+      wall = wall * (1.0 + tint) * (0.55 + 0.45 * brick) +
+             0.45 * Vector3d(0.74, 0.72, 0.68) * (1.0 - brick);
     } else if (box.pattern == FacadePattern::kPanels) {
       // Panels of 1.5 m by half a storey, dark joints, per-panel tint.
       const double pu = u / 1.5, pv = v / (0.5 * box.floor_height_m);
@@ -494,7 +495,8 @@ class ViewRenderer {
     const double grain = AnisotropicNoise(u, v, fu, fv, 0.15, 9, 0.55, seed + 11);
     wall *= 1.0 + (box.pattern == FacadePattern::kPlaster ? 0.22 : 0.12) * grain;
     // Plinth and cornice bands.
-    wall *= 1.0 - 0.25 * BandWeight(v, wv, 0.0, 0.45) - 0.3 * BandWeight(v, wv, height - 0.5, height + 1.0);
+    wall *= 1.0 - 0.25 * BandWeight(v, wv, 0.0, 0.45) -
+            0.3 * BandWeight(v, wv, height - 0.5, height + 1.0);
 
     // Windows: upper storeys on a grid, shop windows and doors on the ground floor.
     const double pitch = box.window_pitch_m, storey = box.floor_height_m;
@@ -527,8 +529,8 @@ class ViewRenderer {
     *label = static_cast<uint8_t>(SurfaceClass::kCar);
     const double light = Lighting(n);
     if (hit.axis == 1) {  // roof
-      const double w = std::abs(dpdu.x()) + std::abs(dpdv.x()) + std::abs(dpdu.z()) +
-                       std::abs(dpdv.z());
+      const double w =
+          std::abs(dpdu.x()) + std::abs(dpdv.x()) + std::abs(dpdu.z()) + std::abs(dpdv.z());
       const double noise = FilteredNoise2(p.x(), p.z(), 1.0, 5, 0.6, w, box.texture_seed);
       return box.colour * light * (0.9 + 0.08 * noise);
     }
@@ -540,7 +542,8 @@ class ViewRenderer {
     const double top = -(box.center.y() - box.half_size.y());
     Vector3d colour = box.colour * light *
                       (1.0 + 0.06 * AnisotropicNoise(u, v, fu, fv, 2.0, 5, 0.6, box.texture_seed));
-    const Vector3d glass_colour = Vector3d(0.08, 0.10, 0.13) + 0.2 * Vector3d(0.5, 0.55, 0.6) * light;
+    const Vector3d glass_colour =
+        Vector3d(0.08, 0.10, 0.13) + 0.2 * Vector3d(0.5, 0.55, 0.6) * light;
     if (box.kind == BoxKind::kCarCabin) {
       // Side windows split by a pillar, windscreen and rear window on the ends.
       double glass = BandWeight(v, wv, bottom + 0.04, top - 0.07) *
@@ -558,12 +561,14 @@ class ViewRenderer {
     const double bumper = BandWeight(v, wv, 0.25, 0.42);
     colour += bumper * 0.6 * (Vector3d(0.1, 0.1, 0.1) - colour);
     if (hit.axis == 0) {
-      const double wheels = BandWeight(v, wv, 0.0, 0.62) *
-                            (BandWeight(u, wu, 0.5, 1.2) + BandWeight(u, wu, length - 1.2, length - 0.5));
+      const double wheels =
+          BandWeight(v, wv, 0.0, 0.62) *
+          (BandWeight(u, wu, 0.5, 1.2) + BandWeight(u, wu, length - 1.2, length - 0.5));
       colour += wheels * (Vector3d(0.05, 0.05, 0.05) - colour);
     } else {
-      const double lights = BandWeight(v, wv, 0.5, 0.7) *
-                            (BandWeight(u, wu, 0.1, 0.4) + BandWeight(u, wu, length - 0.4, length - 0.1));
+      const double lights =
+          BandWeight(v, wv, 0.5, 0.7) *
+          (BandWeight(u, wu, 0.1, 0.4) + BandWeight(u, wu, length - 0.4, length - 0.1));
       colour += lights * (Vector3d(0.85, 0.75, 0.6) - colour);
     }
     return colour;

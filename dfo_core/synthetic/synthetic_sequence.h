@@ -27,13 +27,13 @@ namespace dfo {
 
 // One rendered frame with its ground truth.
 struct SyntheticFrame {
-  int index = 0;              // frame number, 0-based
-  int64_t timestamp_ns = 0;   // index * frame_interval_s
-  SE3d world_from_cam;        // ground-truth pose (camera-to-world, world = first camera)
-  ImageU8 gray;               // 8-bit grey (KITTI image_0)
-  ImageU8 rgb;                // 8-bit RGB (KITTI image_2; rendered from the same pose as gray)
-  ImageF depth;               // z-depth in metres, 0 = no depth (sky, beyond max_depth_m)
-  ImageU8 labels;             // synthetic::SurfaceClass of every pixel
+  int index = 0;             // frame number, 0-based
+  int64_t timestamp_ns = 0;  // index * frame_interval_s
+  SE3d world_from_cam;       // ground-truth pose (camera-to-world, world = first camera)
+  ImageU8 gray;              // 8-bit grey (KITTI image_0)
+  ImageU8 rgb;               // 8-bit RGB (KITTI image_2; rendered from the same pose as gray)
+  ImageF depth;              // z-depth in metres, 0 = no depth (sky, beyond max_depth_m)
+  ImageU8 labels;            // synthetic::SurfaceClass of every pixel
 };
 
 // The sequence: options, camera, path, scene and ground truth, and the renderer.

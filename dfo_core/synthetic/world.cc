@@ -134,7 +134,8 @@ DrivePath DrivePath::Generate(uint64_t seed, double min_length_m) {
   bool first = true;
   while (total < kPathPrefixM + min_length_m + 30.0) {
     // A straight stretch of street at a cruising speed of its own.
-    const double straight = first ? kPathPrefixM + rng.Uniform(25.0, 55.0) : rng.Uniform(35.0, 110.0);
+    const double straight =
+        first ? kPathPrefixM + rng.Uniform(25.0, 55.0) : rng.Uniform(35.0, 110.0);
     const double cruise = rng.Uniform(0.95, 1.45);
     pieces.push_back({straight, 0.0, cruise});
     total += straight;
@@ -182,10 +183,12 @@ DrivePath DrivePath::Generate(uint64_t seed, double min_length_m) {
   const double accel = 0.02;
   std::vector<double> speed = target;
   for (int i = 1; i < n; ++i) {
-    speed[i] = std::min(speed[i], std::sqrt(speed[i - 1] * speed[i - 1] + 2 * accel * kPathSpacingM));
+    speed[i] =
+        std::min(speed[i], std::sqrt(speed[i - 1] * speed[i - 1] + 2 * accel * kPathSpacingM));
   }
   for (int i = n - 2; i >= 0; --i) {
-    speed[i] = std::min(speed[i], std::sqrt(speed[i + 1] * speed[i + 1] + 2 * accel * kPathSpacingM));
+    speed[i] =
+        std::min(speed[i], std::sqrt(speed[i + 1] * speed[i + 1] + 2 * accel * kPathSpacingM));
   }
 
   DrivePath path;
@@ -356,8 +359,8 @@ std::vector<VehicleState> PlanFrames(const DrivePath& path, const SyntheticOptio
     double pitch = 0.25 * std::sin(2 * kPi * k / p1 + ph[0]) +
                    0.1 * std::sin(2 * kPi * k / p2 + ph[1]) + 15.0 * long_acc[k];
     // The body rolls outwards in a turn: about 0.6 deg at 2.6 m/s^2.
-    double roll = 0.2 * std::sin(2 * kPi * k / r1 + ph[2]) + 0.08 * std::sin(2 * kPi * k / r2 + ph[3]) -
-                  23.0 * lat_acc[k];
+    double roll = 0.2 * std::sin(2 * kPi * k / r1 + ph[2]) +
+                  0.08 * std::sin(2 * kPi * k / r2 + ph[3]) - 23.0 * lat_acc[k];
     pitch = std::clamp(pitch, -1.0, 1.0) * kDegToRad;
     roll = std::clamp(roll, -1.0, 1.0) * kDegToRad;
     const PathSample p = path.At(frames[k].s_m);
@@ -374,9 +377,9 @@ const Eigen::Vector3d kFacadeColours[] = {
     {0.56, 0.31, 0.24}, {0.64, 0.40, 0.30}, {0.76, 0.69, 0.56}, {0.62, 0.62, 0.64},
     {0.83, 0.81, 0.76}, {0.40, 0.38, 0.37}, {0.70, 0.60, 0.45}, {0.52, 0.56, 0.60},
     {0.80, 0.74, 0.62}, {0.46, 0.36, 0.30}};
-const Eigen::Vector3d kCarColours[] = {
-    {0.75, 0.08, 0.07}, {0.10, 0.16, 0.42}, {0.85, 0.85, 0.84}, {0.12, 0.12, 0.13},
-    {0.55, 0.56, 0.58}, {0.20, 0.35, 0.22}, {0.80, 0.65, 0.15}, {0.35, 0.35, 0.40}};
+const Eigen::Vector3d kCarColours[] = {{0.75, 0.08, 0.07}, {0.10, 0.16, 0.42}, {0.85, 0.85, 0.84},
+                                       {0.12, 0.12, 0.13}, {0.55, 0.56, 0.58}, {0.20, 0.35, 0.22},
+                                       {0.80, 0.65, 0.15}, {0.35, 0.35, 0.40}};
 
 // Every point of the road centre line (1 m apart), for clearance checks.
 std::vector<Eigen::Vector2d> CentreLine(const DrivePath& path, double lateral) {
@@ -397,8 +400,8 @@ double MinDistance(const SceneBox& box, const std::vector<Eigen::Vector2d>& poin
 
 bool OverlapsAny(const SceneBox& box, const std::vector<SceneBox>& boxes, double margin) {
   for (const auto& other : boxes) {
-    const double reach = box.half_size.x() + box.half_size.z() + other.half_size.x() +
-                         other.half_size.z() + margin;
+    const double reach =
+        box.half_size.x() + box.half_size.z() + other.half_size.x() + other.half_size.z() + margin;
     if (std::abs(other.center.x() - box.center.x()) > reach ||
         std::abs(other.center.z() - box.center.z()) > reach) {
       continue;
@@ -436,9 +439,9 @@ SyntheticWorld SyntheticWorld::Build(const SyntheticOptions& options) {
     SplitMix64 rng(options.seed ^ 0x5A17D1C3B00Cull);
     const double azimuth = rng.Uniform(0.0, 2.0 * kPi);
     const double elevation = rng.Uniform(25.0, 55.0) * kDegToRad;
-    world.sun_direction = Eigen::Vector3d(std::cos(elevation) * std::sin(azimuth),
-                                          -std::sin(elevation),
-                                          std::cos(elevation) * std::cos(azimuth));
+    world.sun_direction =
+        Eigen::Vector3d(std::cos(elevation) * std::sin(azimuth), -std::sin(elevation),
+                        std::cos(elevation) * std::cos(azimuth));
   }
 
   // Clearance checks run against the whole road, so a street that passes near another part of the
@@ -460,7 +463,8 @@ SyntheticWorld SyntheticWorld::Build(const SyntheticOptions& options) {
       const double gap = rng.Bernoulli(0.15) ? rng.Uniform(6.0, 14.0) : rng.Uniform(0.2, 2.5);
       const double q_near = kSidewalkOuterM + setback;
       const double l_near = side > 0 ? q_near - kLaneOffsetM : -q_near - kLaneOffsetM;
-      SceneBox box = PlaceBox(world.path, cursor + 0.5 * length, l_near, side, depth, length, height);
+      SceneBox box =
+          PlaceBox(world.path, cursor + 0.5 * length, l_near, side, depth, length, height);
       box.kind = BoxKind::kBuilding;
       box.colour = kFacadeColours[rng.UniformInt(0, 9)] * rng.Uniform(0.85, 1.12);
       box.pattern = static_cast<FacadePattern>(rng.UniformInt(0, 2));
@@ -489,7 +493,8 @@ SyntheticWorld SyntheticWorld::Build(const SyntheticOptions& options) {
       const double gap = rng.Uniform(5.0, 30.0);
       const double q_near = kSidewalkOuterM + rng.Uniform(22.0, 45.0);
       const double l_near = side > 0 ? q_near - kLaneOffsetM : -q_near - kLaneOffsetM;
-      SceneBox box = PlaceBox(world.path, cursor + 0.5 * length, l_near, side, depth, length, height);
+      SceneBox box =
+          PlaceBox(world.path, cursor + 0.5 * length, l_near, side, depth, length, height);
       box.kind = BoxKind::kBuilding;
       box.colour = kFacadeColours[rng.UniformInt(0, 9)] * rng.Uniform(0.85, 1.12);
       box.pattern = static_cast<FacadePattern>(rng.UniformInt(0, 2));
@@ -531,8 +536,8 @@ SyntheticWorld SyntheticWorld::Build(const SyntheticOptions& options) {
       if (in_turn) continue;
       // Sedans: a body of 55% of the height and a cabin over the middle of it. Vans: one box.
       const double body_height = van ? height : 0.55 * height;
-      SceneBox box = PlaceBox(world.path, s_mid, l_mid - side * 0.5 * width, side, width, length,
-                              body_height);
+      SceneBox box =
+          PlaceBox(world.path, s_mid, l_mid - side * 0.5 * width, side, width, length, body_height);
       box.kind = BoxKind::kCar;
       box.colour = kCarColours[colour];
       box.texture_seed = tex;

@@ -12,10 +12,9 @@
 #ifndef DFO_CORE_SYNTHETIC_WORLD_H_
 #define DFO_CORE_SYNTHETIC_WORLD_H_
 
+#include <Eigen/Core>
 #include <cstdint>
 #include <vector>
-
-#include <Eigen/Core>
 
 #include "dfo_core/lie.h"
 #include "dfo_core/synthetic/options.h"
@@ -23,14 +22,14 @@
 namespace dfo::synthetic {
 
 // Street cross-section (metres), as offsets q from the road centre line (q = l + kLaneOffsetM).
-inline constexpr double kLaneOffsetM = 1.8;         // road centre is this far left of the path
-inline constexpr double kLaneEdgeM = 3.6;           // |q| of the lane edge lines
-inline constexpr double kKerbInnerM = 5.8;          // |q| where the parking lane meets the kerb
-inline constexpr double kKerbOuterM = 6.05;         // |q| where the kerb meets the sidewalk
-inline constexpr double kSidewalkOuterM = 9.2;      // |q| of the sidewalk's outer edge
-inline constexpr double kPathSpacingM = 0.1;        // arc-length step of the sampled path
-inline constexpr double kPathPrefixM = 40.0;        // path (and street) before frame 0
-inline constexpr double kPathExtensionM = 160.0;    // street beyond the last frame's position
+inline constexpr double kLaneOffsetM = 1.8;       // road centre is this far left of the path
+inline constexpr double kLaneEdgeM = 3.6;         // |q| of the lane edge lines
+inline constexpr double kKerbInnerM = 5.8;        // |q| where the parking lane meets the kerb
+inline constexpr double kKerbOuterM = 6.05;       // |q| where the kerb meets the sidewalk
+inline constexpr double kSidewalkOuterM = 9.2;    // |q| of the sidewalk's outer edge
+inline constexpr double kPathSpacingM = 0.1;      // arc-length step of the sampled path
+inline constexpr double kPathPrefixM = 40.0;      // path (and street) before frame 0
+inline constexpr double kPathExtensionM = 160.0;  // street beyond the last frame's position
 
 // One sample of the drive path, every kPathSpacingM metres of arc length.
 struct PathSample {
@@ -63,11 +62,11 @@ class DrivePath {
 
 // State of the car and camera at one frame.
 struct VehicleState {
-  double s_m = 0.0;               // arc length of the camera along the path
-  double speed = 0.0;             // metres travelled to the next frame
-  double pitch_rad = 0.0;         // camera pitch (positive: looking up)
-  double roll_rad = 0.0;          // camera roll about its optical axis
-  SE3d map_from_cam;              // camera pose in the map frame
+  double s_m = 0.0;        // arc length of the camera along the path
+  double speed = 0.0;      // metres travelled to the next frame
+  double pitch_rad = 0.0;  // camera pitch (positive: looking up)
+  double roll_rad = 0.0;   // camera roll about its optical axis
+  SE3d map_from_cam;       // camera pose in the map frame
 };
 
 // Kind of a box in the scene. A parked car is a body box plus a narrower cabin box on top; a van
@@ -85,11 +84,11 @@ struct SceneBox {
   double yaw_rad = 0.0;  // local z axis in the map is (sin yaw, 0, cos yaw); local y = map y
   Eigen::Vector3d colour = Eigen::Vector3d::Constant(0.5);  // base albedo, RGB in [0, 1]
   FacadePattern pattern = FacadePattern::kPlaster;
-  double floor_height_m = 3.2;     // window grid: storey height
-  double window_pitch_m = 2.5;     // window grid: horizontal spacing
-  double window_width_frac = 0.5;  // window width / pitch
-  double window_height_frac = 0.5; // window height / storey height
-  uint32_t texture_seed = 0;       // seed of this box's noise and window variation
+  double floor_height_m = 3.2;      // window grid: storey height
+  double window_pitch_m = 2.5;      // window grid: horizontal spacing
+  double window_width_frac = 0.5;   // window width / pitch
+  double window_height_frac = 0.5;  // window height / storey height
+  uint32_t texture_seed = 0;        // seed of this box's noise and window variation
 
   // Rotation map_from_box (about the map's y axis by yaw).
   Eigen::Matrix3d MapFromBox() const;

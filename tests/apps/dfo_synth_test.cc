@@ -127,8 +127,8 @@ TEST(DfoSynthAppTest, WritesKittiLayoutMatchingTheLibrary) {
   options.num_frames = 10;
   const SyntheticSequence sequence(options);
   for (int i = 0; i < 10; ++i) {
-    EXPECT_TRUE(written[i].world_from_cam.Matrix().isApprox(
-        sequence.WorldFromCam(i).Matrix(), 1e-9))
+    EXPECT_TRUE(
+        written[i].world_from_cam.Matrix().isApprox(sequence.WorldFromCam(i).Matrix(), 1e-9))
         << "pose " << i;
   }
   // The files hold exactly what the library renders (PNG is lossless; depth in 1/256 m).

@@ -1,15 +1,14 @@
 // Tests of the procedural synthetic sequence: options, determinism, the drive's statistics, depth
 // coverage, and the honest check that ground-truth depth and poses explain the images (warping).
-#include "dfo_core/synthetic/synthetic_sequence.h"
+#include <gtest/gtest.h>
 
 #include <algorithm>
 #include <cmath>
 #include <vector>
 
-#include <gtest/gtest.h>
-
 #include "dfo_core/error.h"
 #include "dfo_core/synthetic/noise.h"
+#include "dfo_core/synthetic/synthetic_sequence.h"
 
 namespace dfo {
 namespace {
@@ -105,13 +104,14 @@ TEST(SyntheticSequenceTest, DriveHasKittiLikeMotion) {
     const Trajectory truth = sequence.GroundTruth();
     double step_sum = 0, step_min = 1e9, step_max = 0, turn = 0, max_pitch = 0, max_roll = 0;
     for (size_t i = 1; i < truth.size(); ++i) {
-      const double step = (truth[i].world_from_cam.translation() -
-                           truth[i - 1].world_from_cam.translation()).norm();
+      const double step =
+          (truth[i].world_from_cam.translation() - truth[i - 1].world_from_cam.translation())
+              .norm();
       step_sum += step;
       step_min = std::min(step_min, step);
       step_max = std::max(step_max, step);
-      turn += std::abs(WrapAngle(Heading(truth[i].world_from_cam) -
-                                 Heading(truth[i - 1].world_from_cam)));
+      turn += std::abs(
+          WrapAngle(Heading(truth[i].world_from_cam) - Heading(truth[i - 1].world_from_cam)));
     }
     for (const auto& f : sequence.world().frames) {
       max_pitch = std::max(max_pitch, std::abs(f.pitch_rad));
@@ -186,10 +186,10 @@ TEST(SyntheticSequenceTest, ImagesAreTexturedAndDepthCoversTheScene) {
     const double n = 416.0 * 128.0;
     const double stddev = std::sqrt(sum_sq / n - (sum / n) * (sum / n));
     SCOPED_TRACE("frame " + std::to_string(i));
-    EXPECT_GT(non_sky, 0.6 * n);                 // a street, not an empty sky
-    EXPECT_GT(with_depth, 0.97 * non_sky);       // only the far ground exceeds 255 m
+    EXPECT_GT(non_sky, 0.6 * n);            // a street, not an empty sky
+    EXPECT_GT(with_depth, 0.97 * non_sky);  // only the far ground exceeds 255 m
     EXPECT_EQ(sky_with_depth, 0);
-    EXPECT_GT(stddev, 20.0);                     // textured, not flat
+    EXPECT_GT(stddev, 20.0);  // textured, not flat
     // The road is about camera_height below: depth of the bottom centre pixel.
     const double v = 127.0, z = frame.depth(208, 127);
     const PinholeCamera& cam = sequence.camera();
@@ -234,7 +234,8 @@ WarpResult WarpError(const SyntheticSequence& sequence, int k, double depth_scal
       if (!cam.IsInImage(uv, 1.0)) continue;
       // Depth consistency: the point is what the source sees (not occluded there), at all four
       // pixels around it.
-      const int x0 = static_cast<int>(std::floor(uv.x())), y0 = static_cast<int>(std::floor(uv.y()));
+      const int x0 = static_cast<int>(std::floor(uv.x())),
+                y0 = static_cast<int>(std::floor(uv.y()));
       bool visible = true;
       for (int j = 0; j <= 1; ++j) {
         for (int i = 0; i <= 1; ++i) {
@@ -264,8 +265,8 @@ TEST(SyntheticSequenceTest, GroundTruthWarpReproducesNextFrame) {
   int turn_frame = 0;
   double best = 0;
   for (int k = 0; k + 1 < sequence.num_frames(); ++k) {
-    const double rate = std::abs(WrapAngle(Heading(sequence.WorldFromCam(k + 1)) -
-                                           Heading(sequence.WorldFromCam(k))));
+    const double rate = std::abs(
+        WrapAngle(Heading(sequence.WorldFromCam(k + 1)) - Heading(sequence.WorldFromCam(k))));
     if (rate > best) {
       best = rate;
       turn_frame = k;
@@ -275,9 +276,9 @@ TEST(SyntheticSequenceTest, GroundTruthWarpReproducesNextFrame) {
   for (int k : {0, 150, turn_frame, 420}) {
     const WarpResult r = WarpError(sequence, k);
     SCOPED_TRACE("frame " + std::to_string(k));
-    std::printf("warp %d -> %d: %d valid pixels, warp error %.2f, identity error %.2f (ratio %.3f)\n",
-                k, k + 1, r.valid, r.warp_error, r.identity_error,
-                r.warp_error / r.identity_error);
+    std::printf(
+        "warp %d -> %d: %d valid pixels, warp error %.2f, identity error %.2f (ratio %.3f)\n", k,
+        k + 1, r.valid, r.warp_error, r.identity_error, r.warp_error / r.identity_error);
     EXPECT_GT(r.valid, 416 * 128 / 3);
     EXPECT_LT(r.warp_error, 0.25 * r.identity_error);
     EXPECT_LT(r.warp_error, 4.0);  // grey levels out of 255
