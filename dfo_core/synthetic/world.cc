@@ -136,7 +136,7 @@ DrivePath DrivePath::Generate(uint64_t seed, double min_length_m) {
     // A straight stretch of street at a cruising speed of its own.
     const double straight =
         first ? kPathPrefixM + rng.Uniform(25.0, 55.0) : rng.Uniform(35.0, 110.0);
-    const double cruise = rng.Uniform(0.95, 1.45);
+    const double cruise = rng.Uniform(1.05, 1.45);
     pieces.push_back({straight, 0.0, cruise});
     total += straight;
     // Then a 90-degree corner at an intersection (always first, so every sequence turns early)
@@ -179,8 +179,8 @@ DrivePath DrivePath::Generate(uint64_t seed, double min_length_m) {
   curvature = BoxFilter(BoxFilter(curvature, half), half);
 
   // Speed profile v(s) in metres per frame with |acceleration| <= a (m / frame^2): the classic
-  // forward/backward pass, v(s)^2 <= v(s - ds)^2 + 2 a ds. a = 0.02 m/frame^2 = 2 m/s^2 at 10 Hz.
-  const double accel = 0.02;
+  // forward/backward pass, v(s)^2 <= v(s - ds)^2 + 2 a ds. a = 0.025 m/frame^2 = 2.5 m/s^2 at 10 Hz.
+  const double accel = 0.025;
   std::vector<double> speed = target;
   for (int i = 1; i < n; ++i) {
     speed[i] =
