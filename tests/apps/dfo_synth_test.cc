@@ -14,6 +14,7 @@
 
 #include "dfo_core/synthetic/synthetic_sequence.h"
 #include "dfo_io/image_io.h"
+#include "dfo_io/kitti_dataset.h"
 #include "dfo_io/trajectory_io.h"
 #include "tests/support/test_support.h"
 
@@ -154,6 +155,42 @@ TEST(DfoSynthAppTest, WritesKittiLayoutMatchingTheLibrary) {
   io::ReadImageSize(preview, &w, &h);
   EXPECT_GT(w, 2 * 416);
   EXPECT_GT(h, 5 * 128);
+}
+
+// dfo's own KITTI reader opens the written sequence: same camera, poses and depth.
+TEST(DfoSynthAppTest, KittiReaderOpensTheOutput) {
+  const std::string out = test::MakeTempDir("dfo_synth_reader");
+  const CommandResult r = RunSynth("--output " + out + " --seed 2 --frames 6 --threads 2");
+  ASSERT_EQ(r.status, 0) << r.err;
+  SyntheticOptions options;
+  options.seed = 2;
+  options.num_frames = 6;
+  const SyntheticSequence sequence(options);
+
+  io::DatasetOptions dataset;
+  dataset.path = out;
+  dataset.sequence = "00";
+  dataset.color = true;
+  dataset.depth = true;
+  const io::Sequence opened = io::OpenKittiSequence(dataset);
+  ASSERT_EQ(opened.size(), 6u);
+  const PinholeCamera& cam = opened.native_camera();
+  EXPECT_EQ(cam.width, 416);
+  EXPECT_EQ(cam.height, 128);
+  EXPECT_NEAR(cam.fx, sequence.camera().fx, 1e-9);
+  EXPECT_NEAR(cam.cy, sequence.camera().cy, 1e-9);
+  ASSERT_TRUE(opened.has_ground_truth());
+  ASSERT_TRUE(opened.has_depth());
+  const io::LoadedFrame loaded = opened.Load(5);
+  ASSERT_TRUE(loaded.world_from_cam.has_value());
+  EXPECT_TRUE(loaded.world_from_cam->Matrix().isApprox(sequence.WorldFromCam(5).Matrix(), 1e-9));
+  EXPECT_EQ(loaded.timestamp_ns, sequence.TimestampNs(5));
+  const SyntheticFrame frame = sequence.RenderFrame(5, 2);
+  EXPECT_EQ(loaded.image.vector(), frame.rgb.vector());
+  ASSERT_EQ(loaded.depth_m.size(), frame.depth.size());
+  for (size_t k = 0; k < frame.depth.size(); ++k) {
+    ASSERT_NEAR(loaded.depth_m.vector()[k], frame.depth.vector()[k], 0.5 / 256.0 + 1e-6);
+  }
 }
 
 TEST(DfoSynthAppTest, HelpPrintsUsage) {
