@@ -53,12 +53,104 @@ ConfigSchema BuildSchema() {
       .GreaterThan(10)
       .LessThan(150);
 
+  // Defaults mirror FrontendOptions (dfo_frontend/frontend.h), TrackerOptions
+  // (dfo_frontend/tracker.h), ReferenceOptions (dfo_frontend/reference_options.h) and
+  // HandmadeFeatureOptions (dfo_frontend/feature_source.h); dfo_io cannot include them (no
+  // dependency on the frontend), so a test in tests/apps builds FrontendOptions from the default
+  // Config and compares every field with FrontendOptions{}. The structs' Check() enforces the rules
+  // that do not fit a range (odd patch size, ok thresholds stricter than lost ones).
+  s.AddSection("frontend", "Frontend: where features and depth come from.");
+  s.AddString("frontend.features", "handmade",
+              "Feature source: hand-made z-scored intensity and gradients (learned features "
+              "arrive with the networks)")
+      .OneOf({"handmade"});
+  s.AddString("frontend.depth", "gt",
+              "Depth source: the dataset's ground-truth depth maps (TUM depth/, KITTI-layout "
+              "depth_0/); there is no depth network yet, so a dataset without depth cannot run")
+      .OneOf({"gt"});
+  s.AddString("frontend.handmade_descriptor", "intensity_gradients",
+              "Hand-made channels: intensity and its x/y gradients (3), or rich = those plus a "
+              "3x3-blurred intensity and the gradient magnitude (5)")
+      .OneOf({"intensity_gradients", "rich"});
+  s.AddDouble("frontend.handmade_blur_sigma_px", 0.0,
+              "Gaussian blur (pixels) of each level's grey image before the hand-made channels; "
+              "0 = none")
+      .Min(0)
+      .Max(3);
+
+  s.AddSection("tracker",
+               "Direct feature-metric tracker: coarse-to-fine Gauss-Newton, inverse "
+               "compositional, level 0 = finest.");
+  s.AddInt("tracker.num_levels", 4, "Pyramid levels used (the paper: 4)").Min(1).Max(8);
+  s.AddInt("tracker.patch_size", 3, "Patch side K in pixels (K x K patches), odd").Min(1).Max(7);
+  s.AddInt("tracker.max_points", 600, "Most points (patch centres) selected per level").Min(1);
+  s.AddInt("tracker.min_cell_px", 2, "Smallest point-selection grid cell side in pixels").Min(1);
+  s.AddDouble("tracker.min_gradient", 0.05,
+              "Least feature gradient norm of a selected point (z-score units per pixel)")
+      .Min(0);
+  s.AddIntList("tracker.max_iterations", {10, 15, 20, 30},
+               "Gauss-Newton iteration limit per level, index = level (the last value repeats)")
+      .Min(1);
+  s.AddDoubleList("tracker.convergence_threshold", {1e-6, 1e-5, 1e-5, 1e-5},
+                  "Stop a level when the update norm falls below this, index = level (the last "
+                  "value repeats)")
+      .GreaterThan(0);
+  s.AddBool("tracker.outlier_rule", true,
+            "Drop patches whose squared residual norm exceeds 0.5 * (median + max) (the paper)");
+  s.AddDouble("tracker.rotation_hypotheses_deg", 0.0,
+              "Extra initial hypotheses: rotations of this many degrees about each axis; 0 = "
+              "none (constant velocity, zero, half and double motion are always tried)")
+      .Min(0)
+      .Max(10);
+  s.AddDouble("tracker.hypothesis_abandon_ratio", 1.5,
+              "Abandon a hypothesis whose level RMSE exceeds this times the best (DSO: 1.5)")
+      .GreaterThan(1);
+  s.AddDouble("tracker.good_enough_rmse", 0.25,
+              "Try no further hypotheses once one ends below this RMSE; 0 = try all")
+      .Min(0);
+  s.AddInt("tracker.min_inliers_ok", 100, "Status ok needs at least this many inliers").Min(0);
+  s.AddDouble("tracker.min_inlier_ratio_ok", 0.5, "Status ok needs at least this inlier ratio")
+      .Min(0)
+      .Max(1);
+  s.AddDouble("tracker.max_rmse_ok", 0.5, "Status ok needs an RMSE of at most this")
+      .GreaterThan(0);
+  s.AddInt("tracker.min_inliers_lost", 30, "Status lost below this many inliers").Min(0);
+  s.AddDouble("tracker.max_rmse_lost", 1.0, "Status lost above this RMSE").GreaterThan(0);
+
+  s.AddSection("reference",
+               "When a tracked frame becomes the new reference (any rule that fires switches; "
+               "until the backend's keyframe manager).");
+  s.AddDouble("reference.translation_ratio", 0.15,
+              "Switch when |t_ref_cur| / mean depth of the reference exceeds this")
+      .GreaterThan(0);
+  s.AddDouble("reference.rotation_deg", 10.0,
+              "Switch when the rotation from the reference exceeds this many degrees")
+      .GreaterThan(0);
+  s.AddDouble("reference.min_inlier_ratio", 0.6,
+              "Switch when the finest-level inlier ratio falls below this")
+      .Min(0)
+      .Max(1);
+  s.AddInt("reference.max_interval", 10,
+           "Switch after this many frames against one reference (1 = frame to frame)")
+      .Min(1);
+
   s.AddSection("run", "Running dfo: where results go and how.");
   s.AddString("run.output_dir", "results",
               "Folder for trajectories, metrics and config_effective.yaml (created)");
   s.AddBool("run.deterministic", true,
             "Identical results run to run (fixed seeds, ordered reductions), possibly slower");
-  s.AddInt("run.threads", 2, "Worker threads; 0 = all hardware threads").Min(0);
+  s.AddInt("run.threads", 2,
+           "Worker threads of the frontend (FrontendOptions::num_threads); 0 = all hardware "
+           "threads")
+      .Min(0);
+  s.AddString("run.progress", "auto",
+              "Progress line: auto = redrawn in place on a terminal, plain periodic lines "
+              "otherwise; none = silent")
+      .OneOf({"auto", "terminal", "plain", "none"});
+  s.AddDouble("run.progress_interval_s", 5.0, "Seconds between plain progress lines")
+      .GreaterThan(0);
+  s.AddBool("run.plot", true,
+            "Write frontend_trajectory.png (top view coloured by ATE) when ground truth exists");
   return s;
 }
 

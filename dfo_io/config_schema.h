@@ -1,11 +1,14 @@
 // dfo's configuration schema: every section and key the programs accept, with defaults, ranges and
 // docs, in one place. configs/default.yaml is this schema's ToYaml() output (a test keeps them
-// equal). Later modules add their sections (tracker, keyframe, window, backend, lcm) here.
+// equal). Later modules add their sections (keyframe, window, backend, lcm) here.
 //
 // Sections known now:
 //   dataset  which sequence to read and how to load it (DatasetOptions, dfo_io/dataset.h)
 //   synth    the procedural synthetic sequence (dfo_core/synthetic/options.h)
-//   run      output folder, determinism, threads
+//   frontend feature and depth sources, hand-made feature options (FrontendOptions)
+//   tracker  the direct feature-metric tracker (TrackerOptions, dfo_frontend/tracker.h)
+//   reference the reference-switch rule (ReferenceOptions, dfo_frontend/reference_options.h)
+//   run      output folder, determinism, threads, progress line, plot
 #ifndef DFO_IO_CONFIG_SCHEMA_H_
 #define DFO_IO_CONFIG_SCHEMA_H_
 
