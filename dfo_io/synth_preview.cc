@@ -235,11 +235,27 @@ ImageU8 RenderSyntheticPreview(const SyntheticSequence& sequence, const SynthPre
     // Scale bar and legend.
     const double bar_m = span > 400 ? 100.0 : 50.0;
     const int bl = static_cast<int>(bar_m * scale);
-    cv::rectangle(map, cv::Rect(8, map_size - 70, 205, 62), cv::Scalar(30, 30, 30), cv::FILLED);
-    cv::line(map, {14, map_size - 18}, {14 + bl, map_size - 18}, kText, 2);
-    PutText(map, Fixed(bar_m, 0) + " m", cv::Point(20 + bl, map_size - 13), 0.45, kText);
-    PutText(map, "top view: x right, z forward", cv::Point(14, map_size - 52), 0.42, kDimText);
-    PutText(map, "path  start  end  #k: frames", cv::Point(14, map_size - 34), 0.42, kDimText);
+    const int lx = 8, ly = map_size - 92;
+    cv::rectangle(map, cv::Rect(lx, ly, std::max(250, bl + 70), 84), cv::Scalar(30, 30, 30),
+                  cv::FILLED);
+    PutText(map, "top view (world x right, z up)", cv::Point(lx + 6, ly + 18), 0.42, kDimText);
+    // Legend symbols drawn as on the map.
+    int x = lx + 8;
+    const int sy = ly + 40;
+    cv::line(map, {x, sy - 4}, {x + 18, sy - 4}, cv::Scalar(255, 200, 40), 2, cv::LINE_AA);
+    PutText(map, "path", cv::Point(x + 22, sy), 0.42, kText);
+    x += 64;
+    cv::circle(map, {x + 5, sy - 4}, 5, cv::Scalar(60, 220, 60), cv::FILLED, cv::LINE_AA);
+    PutText(map, "start", cv::Point(x + 14, sy), 0.42, kText);
+    x += 62;
+    cv::rectangle(map, cv::Rect(x, sy - 9, 10, 10), cv::Scalar(60, 60, 230), cv::FILLED);
+    PutText(map, "end", cv::Point(x + 14, sy), 0.42, kText);
+    x += 48;
+    cv::arrowedLine(map, {x, sy - 4}, {x + 16, sy - 4}, cv::Scalar(255, 255, 255), 2, cv::LINE_AA,
+                    0, 0.4);
+    PutText(map, "#k", cv::Point(x + 20, sy), 0.42, kText);
+    cv::line(map, {lx + 8, ly + 66}, {lx + 8 + bl, ly + 66}, kText, 2);
+    PutText(map, Fixed(bar_m, 0) + " m", cv::Point(lx + 14 + bl, ly + 71), 0.45, kText);
   }
 
   cv::cvtColor(canvas, canvas, cv::COLOR_BGR2RGB);
