@@ -1,0 +1,384 @@
+// Runs the real dfo_run executable (DFO_RUN_EXE) on tiny synthetic sequences written by dfo_synth
+// (DFO_SYNTH_EXE) into temporary folders, some broken on purpose, and checks the files it writes,
+// its exit status and its error lines. The runner library (apps/common/sequence_runner.h) is also
+// driven in-process with frames made in memory (NaN depth, a source that fails half-way).
+#include <gtest/gtest.h>
+#include <sys/wait.h>
+
+#include <cmath>
+#include <cstdio>
+#include <filesystem>
+#include <fstream>
+#include <limits>
+#include <sstream>
+#include <stdexcept>
+#include <string>
+#include <vector>
+
+#include "apps/common/sequence_runner.h"
+#include "dfo_core/error.h"
+#include "dfo_core/synthetic/synthetic_sequence.h"
+#include "dfo_io/config.h"
+#include "dfo_io/config_schema.h"
+#include "dfo_io/image_io.h"
+#include "dfo_io/json.h"
+#include "dfo_io/trajectory_io.h"
+#include "tests/support/test_support.h"
+
+namespace dfo {
+namespace {
+
+namespace fs = std::filesystem;
+
+constexpr int kFrames = 10;
+
+struct CommandResult {
+  int status = -1;  // exit status
+  std::string out;  // stdout
+  std::string err;  // stderr
+};
+
+CommandResult RunCommand(const std::string& exe, const std::string& args) {
+  static int counter = 0;
+  const std::string err_path =
+      test::MakeTempDir("dfo_run_stderr") + "/stderr_" + std::to_string(counter++) + ".txt";
+  const std::string command = exe + " " + args + " 2>" + err_path + " </dev/null";
+  CommandResult result;
+  FILE* pipe = popen(command.c_str(), "r");
+  if (pipe == nullptr) return result;
+  char buf[4096];
+  size_t n = 0;
+  while ((n = fread(buf, 1, sizeof(buf), pipe)) > 0) result.out.append(buf, n);
+  const int wait_status = pclose(pipe);
+  result.status = WIFEXITED(wait_status) ? WEXITSTATUS(wait_status) : -1;
+  std::ifstream err(err_path);
+  std::stringstream ss;
+  ss << err.rdbuf();
+  result.err = ss.str();
+  return result;
+}
+
+CommandResult RunDfoRun(const std::string& args) { return RunCommand(DFO_RUN_EXE, args); }
+
+std::string ReadFile(const std::string& path) {
+  std::ifstream file(path, std::ios::binary);
+  std::stringstream ss;
+  ss << file.rdbuf();
+  return ss.str();
+}
+
+size_t CountLines(const std::string& text) {
+  size_t n = 0;
+  for (const char c : text) n += c == '\n' ? 1 : 0;
+  return n;
+}
+
+// Exactly one line on stderr containing every fragment, non-zero exit.
+void ExpectOneLineError(const CommandResult& r, const std::vector<std::string>& fragments) {
+  EXPECT_NE(r.status, 0);
+  ASSERT_FALSE(r.err.empty()) << "stdout: " << r.out;
+  EXPECT_EQ(r.err.find('\n'), r.err.size() - 1) << "more than one line: " << r.err;
+  for (const std::string& f : fragments) {
+    EXPECT_NE(r.err.find(f), std::string::npos) << r.err << "\n  missing: " << f;
+  }
+}
+
+// A fresh copy of a kFrames-frame synthetic sequence (KITTI layout, ground-truth depth and poses)
+// in its own temporary folder; rendered by dfo_synth once per test process.
+std::string MakeSequence(const std::string& tag) {
+  static std::string base;
+  if (base.empty()) {
+    base = test::MakeTempDir("dfo_run_base");
+    const CommandResult r = RunCommand(
+        DFO_SYNTH_EXE, "--output " + base + " --frames " + std::to_string(kFrames) +
+                           " --seed 1 --threads 2");
+    if (r.status != 0) throw std::runtime_error("dfo_synth failed: " + r.err);
+  }
+  const std::string dir = test::MakeTempDir(tag);
+  fs::copy(base, dir, fs::copy_options::recursive | fs::copy_options::overwrite_existing);
+  return dir;
+}
+
+std::string FramePng(const std::string& root, const std::string& folder, int index) {
+  char name[32];
+  std::snprintf(name, sizeof(name), "%06d.png", index);
+  return root + "/sequences/00/" + folder + "/" + name;
+}
+
+// dfo_run arguments for the sequence at `root` writing into `out`.
+std::string RunArgs(const std::string& root, const std::string& out) {
+  return "--config " + test::SourceDir() + "/configs/demo.yaml --set dataset.path=" + root +
+         " --output " + out + " --set run.progress=plain";
+}
+
+io::JsonValue ReadSummary(const std::string& out) {
+  return io::ParseJson(ReadFile(out + "/summary.json"), out + "/summary.json");
+}
+
+TEST(DfoRun, HelpExitsZero) {
+  const CommandResult r = RunDfoRun("--help");
+  EXPECT_EQ(r.status, 0);
+  EXPECT_NE(r.out.find("usage: dfo_run --config FILE.yaml"), std::string::npos) << r.out;
+  EXPECT_TRUE(r.err.empty()) << r.err;
+}
+
+TEST(DfoRun, CommandLineMistakesAreOneLine) {
+  const CommandResult unknown = RunDfoRun("--bogus 3");
+  ExpectOneLineError(unknown, {"unknown argument '--bogus'"});
+  EXPECT_EQ(unknown.status, 2);
+  ExpectOneLineError(RunDfoRun("--config"), {"--config needs a value"});
+  ExpectOneLineError(RunDfoRun(""), {"dataset.path is empty"});
+}
+
+TEST(DfoRun, WritesEveryPromisedFile) {
+  const std::string root = MakeSequence("dfo_run_files");
+  const std::string out = test::MakeTempDir("dfo_run_files_out") + "/run";
+  const CommandResult r = RunDfoRun(RunArgs(root, out));
+  ASSERT_EQ(r.status, 0) << r.out << r.err;
+  EXPECT_TRUE(r.err.empty()) << r.err;
+
+  // Progress: plain lines (stdout is a pipe), the last one for the last frame, no '\r'.
+  EXPECT_NE(r.out.find("dfo_run: frame 10/10 (100%)"), std::string::npos) << r.out;
+  EXPECT_EQ(r.out.find('\r'), std::string::npos);
+
+  // Trajectories: one pose per frame, with the dataset's timestamps (0.1 s apart).
+  const Trajectory kitti = io::ReadKittiTrajectory(out + "/frontend_kitti.txt");
+  const Trajectory tum = io::ReadTumTrajectory(out + "/frontend_tum.txt");
+  ASSERT_EQ(kitti.size(), static_cast<size_t>(kFrames));
+  ASSERT_EQ(tum.size(), static_cast<size_t>(kFrames));
+  EXPECT_EQ(tum[3].timestamp_ns, 300000000);
+  for (int i = 0; i < kFrames; ++i) {
+    EXPECT_LT((kitti[i].world_from_cam.translation() - tum[i].world_from_cam.translation()).norm(),
+              1e-9);
+  }
+
+  // frames.csv: a header and one row per frame.
+  const std::string csv = ReadFile(out + "/frames.csv");
+  EXPECT_EQ(CountLines(csv), static_cast<size_t>(kFrames + 1));
+  EXPECT_EQ(csv.rfind("index,timestamp_s,status,", 0), 0u) << csv;
+
+  // config_effective.yaml loads back to the same configuration.
+  const io::Config effective = io::LoadConfig(out + "/config_effective.yaml", io::DfoSchema());
+  const io::Config original =
+      io::LoadConfig(test::SourceDir() + "/configs/demo.yaml", io::DfoSchema(),
+                     {"dataset.path=" + root, "run.output_dir=" + out, "run.progress=plain"});
+  for (const auto& key : io::DfoSchema().keys()) {
+    EXPECT_EQ(effective.Get(key.path), original.Get(key.path)) << key.path;
+  }
+
+  // summary.json: the keys.
+  const io::JsonValue s = ReadSummary(out);
+  EXPECT_EQ(s["frames"].AsInt(), kFrames);
+  EXPECT_GE(s["frames_lost"].AsInt(), 0);
+  EXPECT_FALSE(s.Has("error"));
+  for (const char* stage : {"load", "features", "depth", "tracking", "total_per_frame"}) {
+    SCOPED_TRACE(stage);
+    EXPECT_TRUE(s["timing_ms"][stage]["median"].IsNumber());
+    EXPECT_TRUE(s["timing_ms"][stage]["p95"].IsNumber());
+    EXPECT_GE(s["timing_ms"][stage]["p95"].AsNumber(), s["timing_ms"][stage]["median"].AsNumber());
+  }
+  EXPECT_GT(s["peak_rss_mb"].AsNumber(), 1.0);
+  EXPECT_GT(s["fps"].AsNumber(), 0.0);
+  // The synthetic sequence has ground truth: the Sim3 evaluation with dfo_eval's keys, the SE3
+  // ATE, and the plot.
+  ASSERT_TRUE(s["frontend"].IsObject()) << s.Dump(2);
+  for (const char* key : {"num_poses", "alignment", "scale", "ate_rmse", "ate_mean", "ate_median",
+                          "ate_max", "rpe_trans_rmse", "rpe_rot_rmse_deg", "kitti_t_rel_pct",
+                          "snippet_ate_mean", "ate_rmse_se3", "ate_rmse_pct_of_path"}) {
+    EXPECT_TRUE(s["frontend"].Has(key)) << key;
+  }
+  EXPECT_EQ(s["frontend"]["alignment"].AsString(), "sim3");
+  EXPECT_EQ(s["frontend"]["num_poses"].AsInt(), kFrames);
+  EXPECT_TRUE(fs::is_regular_file(out + "/frontend_trajectory.png"));
+}
+
+TEST(DfoRun, TwoRunsGiveByteIdenticalTrajectories) {
+  const std::string root = MakeSequence("dfo_run_determinism");
+  const std::string out = test::MakeTempDir("dfo_run_determinism_out");
+  ASSERT_EQ(RunDfoRun(RunArgs(root, out + "/a")).status, 0);
+  ASSERT_EQ(RunDfoRun(RunArgs(root, out + "/b")).status, 0);
+  for (const char* name : {"frontend_kitti.txt", "frontend_tum.txt"}) {
+    SCOPED_TRACE(name);
+    const std::string a = ReadFile(out + "/a/" + name);
+    EXPECT_FALSE(a.empty());
+    EXPECT_EQ(a, ReadFile(out + "/b/" + name));
+  }
+}
+
+TEST(DfoRunBadInput, CorruptImageMidSequenceKeepsWhatWasComputed) {
+  const std::string root = MakeSequence("dfo_run_corrupt");
+  const std::string bad = FramePng(root, "image_0", 5);
+  std::ofstream(bad, std::ios::binary | std::ios::trunc) << "this is not a PNG file";
+  const std::string out = test::MakeTempDir("dfo_run_corrupt_out");
+  const CommandResult r = RunDfoRun(RunArgs(root, out));
+  ExpectOneLineError(r, {"dfo_run: error:", bad, "stopped after 5 of 10 frames"});
+  EXPECT_EQ(r.status, 1);
+  // Frames 0..4 were tracked: their poses are written, and the summary says what stopped the run.
+  EXPECT_EQ(io::ReadKittiTrajectory(out + "/frontend_kitti.txt").size(), 5u);
+  EXPECT_EQ(io::ReadTumTrajectory(out + "/frontend_tum.txt").size(), 5u);
+  EXPECT_EQ(CountLines(ReadFile(out + "/frames.csv")), 6u);
+  EXPECT_TRUE(fs::is_regular_file(out + "/config_effective.yaml"));
+  const io::JsonValue s = ReadSummary(out);
+  EXPECT_EQ(s["frames"].AsInt(), 5);
+  EXPECT_EQ(s["frames_in_sequence"].AsInt(), kFrames);
+  EXPECT_NE(s["error"].AsString().find(bad), std::string::npos) << s["error"].AsString();
+}
+
+TEST(DfoRunBadInput, DepthOfAnotherSizeIsAClearError) {
+  const std::string root = MakeSequence("dfo_run_depth_size");
+  const std::string bad = FramePng(root, "depth_0", 4);
+  io::WriteU16(bad, ImageU16(100, 30, 1));
+  const std::string out = test::MakeTempDir("dfo_run_depth_size_out");
+  const CommandResult r = RunDfoRun(RunArgs(root, out));
+  ExpectOneLineError(r, {bad, "100x30", "expected the image size 416x128"});
+  EXPECT_EQ(io::ReadKittiTrajectory(out + "/frontend_kitti.txt").size(), 4u);
+  EXPECT_TRUE(ReadSummary(out).Has("error"));
+}
+
+TEST(DfoRunBadInput, MissingSequenceFolder) {
+  const std::string out = test::MakeTempDir("dfo_run_missing_out");
+  const std::string missing = out + "/no_such_dataset";
+  ExpectOneLineError(RunDfoRun(RunArgs(missing, out + "/run")), {"dfo_run: error:", missing});
+  EXPECT_FALSE(fs::exists(out + "/run/summary.json"));
+}
+
+TEST(DfoRunBadInput, EmptySequenceFolder) {
+  const std::string empty = test::MakeTempDir("dfo_run_empty");
+  const std::string out = test::MakeTempDir("dfo_run_empty_out");
+  ExpectOneLineError(RunDfoRun(RunArgs(empty, out)), {"dfo_run: error:", empty});
+  // The KITTI layout with an image folder holding no image.
+  const std::string root = MakeSequence("dfo_run_no_images");
+  for (const auto& entry : fs::directory_iterator(root + "/sequences/00/image_0")) {
+    fs::remove(entry.path());
+  }
+  ExpectOneLineError(RunDfoRun(RunArgs(root, out)), {"dfo_run: error:", "image_0"});
+}
+
+TEST(DfoRunBadInput, ConfigTypoSuggestsTheKey) {
+  const std::string dir = test::MakeTempDir("dfo_run_typo");
+  std::ofstream(dir + "/typo.yaml") << "tracker:\n  num_levels: 4\n  patch_sise: 3\n";
+  const CommandResult file = RunDfoRun("--config " + dir + "/typo.yaml");
+  ExpectOneLineError(file, {dir + "/typo.yaml:3", "unknown key 'tracker.patch_sise'",
+                            "did you mean 'tracker.patch_size'"});
+  const CommandResult set = RunDfoRun("--set refrence.max_interval=3");
+  ExpectOneLineError(set, {"unknown configuration key 'refrence.max_interval'",
+                           "did you mean 'reference.max_interval'"});
+  const CommandResult range = RunDfoRun("--set tracker.num_levels=0");
+  ExpectOneLineError(range, {"tracker.num_levels = 0 violates >= 1"});
+}
+
+TEST(DfoRunBadInput, DatasetWithoutDepthNeedsADepthSource) {
+  const std::string root = MakeSequence("dfo_run_no_depth");
+  fs::remove_all(root + "/sequences/00/depth_0");
+  const std::string out = test::MakeTempDir("dfo_run_no_depth_out");
+  ExpectOneLineError(RunDfoRun(RunArgs(root, out)),
+                     {"no depth source", "has no depth maps and there is no depth network yet"});
+}
+
+TEST(DfoRunBadInput, DepthFullOfZerosIsLostNotACrash) {
+  const std::string root = MakeSequence("dfo_run_zero_depth");
+  for (int i = 0; i < kFrames; ++i) io::WriteU16(FramePng(root, "depth_0", i), ImageU16(416, 128, 1));
+  const std::string out = test::MakeTempDir("dfo_run_zero_depth_out");
+  const CommandResult r = RunDfoRun(RunArgs(root, out));
+  EXPECT_EQ(r.status, 0) << r.err;
+  const io::JsonValue s = ReadSummary(out);
+  EXPECT_EQ(s["frames"].AsInt(), kFrames);
+  EXPECT_EQ(s["frames_ok"].AsInt(), 0);
+  EXPECT_EQ(s["frames_degraded"].AsInt(), 0);
+  EXPECT_GE(s["frames_lost"].AsInt(), 1);
+  EXPECT_EQ(io::ReadKittiTrajectory(out + "/frontend_kitti.txt").size(),
+            static_cast<size_t>(kFrames));
+}
+
+// --- The runner library in-process -----------------------------------------------------------
+
+// Synthetic frames rendered in memory; depth replaced by NaN when asked; Load throws for frames
+// at or after `fail_at`.
+class InMemoryProvider : public apps::FrameProvider {
+ public:
+  InMemoryProvider(int frames, bool nan_depth, int fail_at = -1)
+      : sequence_(Options(frames)), nan_depth_(nan_depth), fail_at_(fail_at) {}
+  std::string name() const override { return "in-memory synthetic"; }
+  size_t size() const override { return static_cast<size_t>(sequence_.num_frames()); }
+  io::LoadedFrame Load(size_t i) const override {
+    if (fail_at_ >= 0 && static_cast<int>(i) >= fail_at_) {
+      throw InputError("frame " + std::to_string(i) + ": broken on purpose");
+    }
+    const SyntheticFrame f = sequence_.RenderFrame(static_cast<int>(i), 2);
+    io::LoadedFrame loaded;
+    loaded.index = static_cast<int>(i);
+    loaded.timestamp_ns = f.timestamp_ns;
+    loaded.image = f.gray;
+    loaded.depth_m = f.depth;
+    if (nan_depth_) {
+      for (int y = 0; y < loaded.depth_m.height(); ++y) {
+        for (int x = 0; x < loaded.depth_m.width(); ++x) {
+          loaded.depth_m(x, y) = std::numeric_limits<float>::quiet_NaN();
+        }
+      }
+    }
+    loaded.camera = sequence_.camera();
+    loaded.world_from_cam = f.world_from_cam;
+    return loaded;
+  }
+
+ private:
+  static SyntheticOptions Options(int frames) {
+    SyntheticOptions o;
+    o.num_frames = frames;
+    return o;
+  }
+  SyntheticSequence sequence_;
+  bool nan_depth_;
+  int fail_at_;
+};
+
+TEST(SequenceRunner, NanDepthIsLostNotACrash) {
+  const InMemoryProvider provider(5, /*nan_depth=*/true);
+  Frontend frontend{FrontendOptions{}};
+  apps::SequenceRunOptions options;
+  options.progress_stream = nullptr;
+  const apps::SequenceRunResult result = apps::RunSequence(provider, &frontend, options);
+  EXPECT_TRUE(result.error.empty()) << result.error;
+  ASSERT_EQ(result.frames.size(), 5u);
+  EXPECT_EQ(result.CountStatus(TrackingStatus::kOk), 0);
+  EXPECT_EQ(result.CountStatus(TrackingStatus::kDegraded), 0);
+  EXPECT_GE(result.CountStatus(TrackingStatus::kLost), 1);
+  for (const apps::FrameRecord& f : result.frames) {
+    EXPECT_TRUE(f.tracked.world_from_cam.translation().allFinite());
+  }
+}
+
+TEST(SequenceRunner, ErrorHalfWayKeepsTheFramesBefore) {
+  const InMemoryProvider provider(6, /*nan_depth=*/false, /*fail_at=*/3);
+  Frontend frontend{FrontendOptions{}};
+  apps::SequenceRunOptions options;
+  options.progress_stream = nullptr;
+  const apps::SequenceRunResult result = apps::RunSequence(provider, &frontend, options);
+  EXPECT_EQ(result.frames.size(), 3u);
+  EXPECT_EQ(result.frames_in_sequence, 6u);
+  EXPECT_NE(result.error.find("frame 3: broken on purpose"), std::string::npos) << result.error;
+  const std::string out = test::MakeTempDir("sequence_runner_partial");
+  const apps::RunOutputs outputs = apps::WriteRunOutputs(result, out, /*plot=*/false);
+  EXPECT_EQ(io::ReadKittiTrajectory(out + "/frontend_kitti.txt").size(), 3u);
+  EXPECT_EQ(outputs.summary["error"].AsString(), result.error);
+  EXPECT_EQ(outputs.summary["frames"].AsInt(), 3);
+  EXPECT_TRUE(outputs.plot_path.empty());
+}
+
+TEST(SequenceRunner, SummaryWithoutGroundTruthSaysWhy) {
+  apps::SequenceRunResult result;
+  result.sequence_name = "no gt";
+  result.frames_in_sequence = 2;
+  result.frames.resize(2);
+  result.wall_s = 0.5;
+  const apps::RunEvaluation evaluation = apps::EvaluateRun(result);
+  EXPECT_FALSE(evaluation.available);
+  const io::JsonValue s = apps::MakeRunSummary(result, evaluation);
+  EXPECT_TRUE(s["frontend"].IsNull());
+  EXPECT_NE(s["frontend_note"].AsString().find("no ground truth"), std::string::npos);
+  EXPECT_DOUBLE_EQ(s["fps"].AsNumber(), 4.0);
+}
+
+}  // namespace
+}  // namespace dfo
