@@ -1,0 +1,266 @@
+// dfo_bench: speed of the frontend, printed (nothing is asserted; tests never time anything).
+//
+//   dfo_bench [--frames N] [--threads T] [--levels L] [--seed S]      tracker benchmark
+//   dfo_bench --whole-run [--run-frames N] [--sequence DIR]            + whole dfo_run pipeline
+//
+// 1. Tracker: renders N synthetic frames of 416 x 128 in memory first (not timed), then runs the
+//    Frontend (hand-made features, ground-truth depth, default points) over them and prints the
+//    median and 95th percentile of the feature, depth and tracking times per frame and the frames
+//    per second of Frontend::Process alone.
+// 2. Whole run (--whole-run): the same path as dfo_run (PNG loading and resizing, frontend,
+//    progress) on a synthetic sequence on disk with ground-truth depth, default 500 frames,
+//    rendered with dfo_synth's writer into a temporary folder unless --sequence names one.
+#include <chrono>
+#include <cerrno>
+#include <cstdio>
+#include <cstdlib>
+#include <exception>
+#include <filesystem>
+#include <iostream>
+#include <string>
+#include <thread>
+#include <vector>
+
+#include <unistd.h>
+
+#include "apps/common/evaluation.h"
+#include "apps/common/run_stats.h"
+#include "apps/common/sequence_runner.h"
+#include "dfo_core/error.h"
+#include "dfo_core/synthetic/synthetic_sequence.h"
+#include "dfo_frontend/frontend.h"
+#include "dfo_io/dataset.h"
+#include "dfo_io/synth_writer.h"
+
+namespace dfo {
+namespace {
+
+constexpr const char* kUsage = R"(usage: dfo_bench [options]
+
+Times dfo's frontend on the synthetic street sequence (416 x 128, hand-made features,
+ground-truth depth, default points). Prints figures; asserts nothing.
+
+options:
+  --frames N        frames for the tracker benchmark, rendered in memory first (default 200)
+  --threads T       FrontendOptions::num_threads (default 2)
+  --levels L        pyramid levels (default 4)
+  --seed S          synthetic sequence seed (default 1)
+  --whole-run       also time the whole dfo_run path (loading PNGs from disk) on a sequence
+  --run-frames N    frames of that sequence (default 500)
+  --sequence DIR    use this KITTI-layout root (with depth_0) instead of rendering one
+  --help            this text
+)";
+
+struct UsageError : Error {
+  using Error::Error;
+};
+
+struct Args {
+  int frames = 200;
+  int threads = 2;
+  int levels = 4;
+  uint64_t seed = 1;
+  bool whole_run = false;
+  int run_frames = 500;
+  std::string sequence;
+  bool help = false;
+};
+
+int ParseInt(const std::string& flag, const std::string& text, int lo, int hi) {
+  errno = 0;
+  char* end = nullptr;
+  const long v = std::strtol(text.c_str(), &end, 10);
+  if (text.empty() || *end != '\0' || errno != 0 || v < lo || v > hi) {
+    throw UsageError(flag + " expects an integer in [" + std::to_string(lo) + ", " +
+                     std::to_string(hi) + "], got '" + text + "'");
+  }
+  return static_cast<int>(v);
+}
+
+Args ParseArgs(int argc, char** argv) {
+  Args a;
+  for (int i = 1; i < argc; ++i) {
+    const std::string flag = argv[i];
+    const auto value = [&]() -> std::string {
+      if (i + 1 >= argc) throw UsageError(flag + " needs a value");
+      return argv[++i];
+    };
+    if (flag == "--help" || flag == "-h") {
+      a.help = true;
+    } else if (flag == "--frames") {
+      a.frames = ParseInt(flag, value(), 2, 100000);
+    } else if (flag == "--threads") {
+      a.threads = ParseInt(flag, value(), 1, 256);
+    } else if (flag == "--levels") {
+      a.levels = ParseInt(flag, value(), 1, 8);
+    } else if (flag == "--seed") {
+      a.seed = static_cast<uint64_t>(ParseInt(flag, value(), 0, 1 << 30));
+    } else if (flag == "--whole-run") {
+      a.whole_run = true;
+    } else if (flag == "--run-frames") {
+      a.run_frames = ParseInt(flag, value(), 2, 100000);
+    } else if (flag == "--sequence") {
+      a.sequence = value();
+    } else {
+      throw UsageError("unknown argument '" + flag + "'");
+    }
+  }
+  return a;
+}
+
+FrontendOptions BenchFrontendOptions(const Args& args) {
+  FrontendOptions o;  // hand-made features, ground-truth depth, default points
+  o.tracker.num_levels = args.levels;
+  o.num_threads = args.threads;
+  o.Check();
+  return o;
+}
+
+void PrintStage(const char* name, const std::vector<double>& ms) {
+  const apps::TimingSummary s = apps::SummariseTimes(ms);
+  std::printf("  %-10s median %7.3f ms   p95 %7.3f ms   mean %7.3f ms   max %7.3f ms\n", name,
+              s.median_ms, s.p95_ms, s.mean_ms, s.max_ms);
+}
+
+void TrackerBenchmark(const Args& args) {
+  SyntheticOptions synth;
+  synth.seed = args.seed;
+  synth.num_frames = args.frames;
+  const SyntheticSequence sequence(synth);
+  std::printf("rendering %d frames of %dx%d in memory (seed %llu)...\n", args.frames, synth.width,
+              synth.height, static_cast<unsigned long long>(args.seed));
+  std::fflush(stdout);
+  std::vector<Frame> frames;
+  frames.reserve(args.frames);
+  for (int i = 0; i < args.frames; ++i) {
+    const SyntheticFrame f = sequence.RenderFrame(i, 2);
+    Frame frame;
+    frame.index = i;
+    frame.timestamp_ns = f.timestamp_ns;
+    frame.image = f.gray;
+    frame.depth_m = f.depth;
+    frame.camera = sequence.camera();
+    frames.push_back(std::move(frame));
+  }
+
+  const FrontendOptions options = BenchFrontendOptions(args);
+  Frontend frontend(options);
+  std::vector<double> features, depth, tracking, process;
+  Trajectory estimate;
+  int lost = 0;
+  const auto start = std::chrono::steady_clock::now();
+  for (const Frame& frame : frames) {
+    const auto t0 = std::chrono::steady_clock::now();
+    const TrackedFrame tracked = frontend.Process(frame);
+    process.push_back(apps::MillisecondsSince(t0));
+    const FrontendTimings& t = frontend.last_timings();
+    features.push_back(t.features_ms);
+    depth.push_back(t.depth_ms);
+    tracking.push_back(t.tracking_ms);
+    estimate.Add(tracked.timestamp_ns, tracked.world_from_cam);
+    lost += tracked.status == TrackingStatus::kLost ? 1 : 0;
+  }
+  const double seconds =
+      std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+
+  std::printf(
+      "tracker: %d frames %dx%d, features %s, depth %s, %d levels, max_points %d, patch %d, "
+      "%d threads\n",
+      args.frames, synth.width, synth.height, options.features.c_str(), options.depth.c_str(),
+      options.tracker.num_levels, options.tracker.max_points, options.tracker.patch_size,
+      options.num_threads);
+  PrintStage("features", features);
+  PrintStage("depth", depth);
+  PrintStage("tracking", tracking);
+  PrintStage("process", process);
+  std::printf("  frames/s   %.1f (Frontend::Process only, frames in memory)\n",
+              static_cast<double>(args.frames) / seconds);
+  // Accuracy as a sanity check of what was timed.
+  try {
+    const apps::TrajectoryEvaluation e = apps::EvaluateTrajectory(sequence.GroundTruth(), estimate);
+    std::printf("  accuracy   Sim3 ATE rmse %.4f m = %.3f %% of the %.1f m path, %d lost\n",
+                e.ate.stats.rmse, 100.0 * e.ate.stats.rmse / e.gt_path_length_m,
+                e.gt_path_length_m, lost);
+  } catch (const InputError& error) {
+    std::printf("  accuracy   not computed: %s\n", error.what());
+  }
+}
+
+void WholeRunBenchmark(const Args& args) {
+  std::string root = args.sequence;
+  std::string temp;
+  if (root.empty()) {
+    temp = (std::filesystem::temp_directory_path() /
+            ("dfo_bench_" + std::to_string(::getpid())))
+               .string();
+    SyntheticOptions synth;
+    synth.seed = args.seed;
+    synth.num_frames = args.run_frames;
+    const SyntheticSequence sequence(synth);
+    io::SynthWriteOptions write;
+    write.output_dir = temp;
+    write.num_threads = 2;
+    write.write_rgb = false;
+    std::printf("\nwriting a %d-frame synthetic sequence to %s...\n", args.run_frames,
+                temp.c_str());
+    std::fflush(stdout);
+    io::WriteSyntheticSequence(sequence, write);
+    root = temp;
+  }
+  io::DatasetOptions dataset;
+  dataset.type = "kitti";
+  dataset.path = root;
+  dataset.sequence = "00";
+  dataset.depth = true;
+  const io::Sequence sequence = io::OpenSequence(dataset);
+  apps::SequenceFrameProvider provider(sequence);
+  Frontend frontend(BenchFrontendOptions(args));
+  apps::SequenceRunOptions run;
+  run.label = "dfo_bench whole run";
+  run.progress_interval_s = 10.0;
+  const apps::SequenceRunResult result = apps::RunSequence(provider, &frontend, run);
+  if (!result.error.empty()) throw InputError(result.error);
+  std::vector<double> load, total;
+  for (const apps::FrameRecord& f : result.frames) {
+    load.push_back(f.load_ms);
+    total.push_back(f.total_ms);
+  }
+  std::printf("whole run (as dfo_run: PNG image + depth loading, frontend): %zu frames\n",
+              result.frames.size());
+  PrintStage("load", load);
+  PrintStage("per frame", total);
+  std::printf("  frames/s   %.1f\n", static_cast<double>(result.frames.size()) / result.wall_s);
+  const apps::RunEvaluation e = apps::EvaluateRun(result);
+  if (e.available) {
+    std::printf("  accuracy   Sim3 ATE rmse %.4f m = %.3f %% of the %.1f m path, %d lost\n",
+                e.sim3.ate.stats.rmse, 100.0 * e.sim3.ate.stats.rmse / e.sim3.gt_path_length_m,
+                e.sim3.gt_path_length_m, result.CountStatus(TrackingStatus::kLost));
+  }
+  std::printf("  peak RSS   %.1f MiB\n", apps::PeakRssMb());
+  if (!temp.empty()) {
+    std::error_code ec;
+    std::filesystem::remove_all(temp, ec);
+  }
+}
+
+}  // namespace
+}  // namespace dfo
+
+int main(int argc, char** argv) {
+  try {
+    const dfo::Args args = dfo::ParseArgs(argc, argv);
+    if (args.help) {
+      std::cout << dfo::kUsage;
+      return 0;
+    }
+    dfo::TrackerBenchmark(args);
+    if (args.whole_run) dfo::WholeRunBenchmark(args);
+    return 0;
+  } catch (const dfo::UsageError& e) {
+    std::cerr << "dfo_bench: error: " << e.what() << " (see dfo_bench --help)\n";
+    return 2;
+  } catch (const std::exception& e) {
+    std::cerr << "dfo_bench: error: " << e.what() << "\n";
+    return 1;
+  }
+}
