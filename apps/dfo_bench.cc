@@ -10,8 +10,10 @@
 // 2. Whole run (--whole-run): the same path as dfo_run (PNG loading and resizing, frontend,
 //    progress) on a synthetic sequence on disk with ground-truth depth, default 500 frames,
 //    rendered with dfo_synth's writer into a temporary folder unless --sequence names one.
-#include <chrono>
+#include <unistd.h>
+
 #include <cerrno>
+#include <chrono>
 #include <cstdio>
 #include <cstdlib>
 #include <exception>
@@ -20,8 +22,6 @@
 #include <string>
 #include <thread>
 #include <vector>
-
-#include <unistd.h>
 
 #include "apps/common/evaluation.h"
 #include "apps/common/run_stats.h"
@@ -179,8 +179,8 @@ void TrackerBenchmark(const Args& args) {
   try {
     const apps::TrajectoryEvaluation e = apps::EvaluateTrajectory(sequence.GroundTruth(), estimate);
     std::printf("  accuracy   Sim3 ATE rmse %.4f m = %.3f %% of the %.1f m path, %d lost\n",
-                e.ate.stats.rmse, 100.0 * e.ate.stats.rmse / e.gt_path_length_m,
-                e.gt_path_length_m, lost);
+                e.ate.stats.rmse, 100.0 * e.ate.stats.rmse / e.gt_path_length_m, e.gt_path_length_m,
+                lost);
   } catch (const InputError& error) {
     std::printf("  accuracy   not computed: %s\n", error.what());
   }
@@ -190,8 +190,7 @@ void WholeRunBenchmark(const Args& args) {
   std::string root = args.sequence;
   std::string temp;
   if (root.empty()) {
-    temp = (std::filesystem::temp_directory_path() /
-            ("dfo_bench_" + std::to_string(::getpid())))
+    temp = (std::filesystem::temp_directory_path() / ("dfo_bench_" + std::to_string(::getpid())))
                .string();
     SyntheticOptions synth;
     synth.seed = args.seed;

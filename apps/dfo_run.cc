@@ -28,7 +28,8 @@
 namespace dfo {
 namespace {
 
-constexpr const char* kUsage = R"(usage: dfo_run --config FILE.yaml [--set section.key=value ...] [--output DIR]
+constexpr const char* kUsage =
+    R"(usage: dfo_run --config FILE.yaml [--set section.key=value ...] [--output DIR]
 
 Runs dfo's frontend (direct feature-metric tracking against a reference frame) over the sequence
 named in the configuration's `dataset` section and writes into the output folder:
@@ -144,8 +145,8 @@ int Run(const Args& args) {
             << frontend_options.tracker.num_levels << " levels -> " << output_dir << "\n";
   for (const auto& key : config.schema().keys()) {
     if (!config.IsDefault(key.path)) {
-      std::cout << "  " << key.path << " = " << io::FormatConfigValue(config.Get(key.path))
-                << "  (" << config.Source(key.path) << ")\n";
+      std::cout << "  " << key.path << " = " << io::FormatConfigValue(config.Get(key.path)) << "  ("
+                << config.Source(key.path) << ")\n";
     }
   }
   std::cout.flush();
@@ -168,10 +169,10 @@ int Run(const Args& args) {
     const apps::TrajectoryEvaluation& e = outputs.evaluation.sim3;
     const double pct = e.gt_path_length_m > 0 ? 100.0 * e.ate.stats.rmse / e.gt_path_length_m
                                               : std::numeric_limits<double>::quiet_NaN();
-    std::cout << "ATE (sim3):  rmse " << apps::FormatFixed(e.ate.stats.rmse, 4) << " m = "
-              << apps::FormatFixed(pct, 3) << " % of the " << apps::FormatFixed(e.gt_path_length_m, 1)
-              << " m path (scale " << apps::FormatFixed(e.alignment.transform.scale, 4)
-              << ");  se3 alignment: rmse "
+    std::cout << "ATE (sim3):  rmse " << apps::FormatFixed(e.ate.stats.rmse, 4)
+              << " m = " << apps::FormatFixed(pct, 3) << " % of the "
+              << apps::FormatFixed(e.gt_path_length_m, 1) << " m path (scale "
+              << apps::FormatFixed(e.alignment.transform.scale, 4) << ");  se3 alignment: rmse "
               << apps::FormatFixed(outputs.evaluation.ate_rmse_se3, 4) << " m\n";
     std::cout << "RPE:         " << apps::FormatFixed(e.rpe.translation.rmse, 4) << " m, "
               << apps::FormatFixed(e.rpe.rotation_deg.rmse, 4) << " deg per frame (rmse)";
@@ -199,9 +200,9 @@ int Run(const Args& args) {
   std::cout.flush();
 
   if (!result.error.empty()) {
-    std::cerr << "dfo_run: error: " << result.error << " (stopped after "
-              << result.frames.size() << " of " << result.frames_in_sequence
-              << " frames; their results are in " << output_dir << ")\n";
+    std::cerr << "dfo_run: error: " << result.error << " (stopped after " << result.frames.size()
+              << " of " << result.frames_in_sequence << " frames; their results are in "
+              << output_dir << ")\n";
     return 1;
   }
   return 0;

@@ -35,9 +35,9 @@ struct TrajectoryEvaluationOptions {
 // (pose i of one corresponds to pose i of the other).
 struct TrajectoryEvaluation {
   TrajectoryEvaluationOptions options;
-  size_t num_gt_poses = 0;   // poses in the ground-truth input, before association
-  size_t num_est_poses = 0;  // poses in the estimate input, before association
-  std::string format;        // "kitti" | "tum" | "frames": where the pairing came from
+  size_t num_gt_poses = 0;        // poses in the ground-truth input, before association
+  size_t num_est_poses = 0;       // poses in the estimate input, before association
+  std::string format;             // "kitti" | "tum" | "frames": where the pairing came from
   TrajectoryAlignment alignment;  // the fitted transform and the aligned estimate
   Trajectory ground_truth;        // the associated ground truth
   AteResult ate;

@@ -35,8 +35,8 @@ std::string ProgressReporter::FormatLine(const std::string& label, size_t done, 
                                          double elapsed_s, const std::string& extra) {
   char buf[256];
   const double fps = elapsed_s > 0.0 ? static_cast<double>(done) / elapsed_s : 0.0;
-  const double pct = total > 0 ? 100.0 * static_cast<double>(done) / static_cast<double>(total)
-                               : 100.0;
+  const double pct =
+      total > 0 ? 100.0 * static_cast<double>(done) / static_cast<double>(total) : 100.0;
   std::string eta = "?";
   if (fps > 0.0 && total >= done) {
     const double left_s = static_cast<double>(total - done) / fps;

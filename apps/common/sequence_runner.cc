@@ -90,8 +90,7 @@ SequenceRunResult RunSequence(const FrameProvider& provider, Frontend* frontend,
     }
     progress.Update(result.frames.size(), "lost " + std::to_string(lost));
   }
-  result.wall_s =
-      std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+  result.wall_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
   progress.Finish(result.frames.size(), "lost " + std::to_string(lost));
   return result;
 }
@@ -143,9 +142,9 @@ io::JsonValue MakeRunSummary(const SequenceRunResult& result, const RunEvaluatio
     frontend.Set("ate_rmse_se3", evaluation.ate_rmse_se3);
     frontend.Set("gt_path_length_m", evaluation.sim3.gt_path_length_m);
     const double length = evaluation.sim3.gt_path_length_m;
-    frontend.Set("ate_rmse_pct_of_path",
-                 length > 0.0 ? 100.0 * evaluation.sim3.ate.stats.rmse / length
-                              : std::numeric_limits<double>::quiet_NaN());
+    frontend.Set("ate_rmse_pct_of_path", length > 0.0
+                                             ? 100.0 * evaluation.sim3.ate.stats.rmse / length
+                                             : std::numeric_limits<double>::quiet_NaN());
     s.Set("frontend", std::move(frontend));
   } else {
     s.Set("frontend", nullptr);

@@ -74,13 +74,13 @@ struct SequenceRunOptions {
 
 // One processed frame.
 struct FrameRecord {
-  TrackedFrame tracked;                 // the frontend's result
-  std::optional<SE3d> ground_truth;     // world_from_cam from the dataset, when known
-  double load_ms = 0.0;                 // reading and resizing image (and depth)
-  double features_ms = 0.0;             // FrontendTimings::features_ms
-  double depth_ms = 0.0;                // FrontendTimings::depth_ms
-  double tracking_ms = 0.0;             // FrontendTimings::tracking_ms
-  double total_ms = 0.0;                // load + the whole Frontend::Process call
+  TrackedFrame tracked;              // the frontend's result
+  std::optional<SE3d> ground_truth;  // world_from_cam from the dataset, when known
+  double load_ms = 0.0;              // reading and resizing image (and depth)
+  double features_ms = 0.0;          // FrontendTimings::features_ms
+  double depth_ms = 0.0;             // FrontendTimings::depth_ms
+  double tracking_ms = 0.0;          // FrontendTimings::tracking_ms
+  double total_ms = 0.0;             // load + the whole Frontend::Process call
 };
 
 // Everything a run produced.
@@ -105,10 +105,10 @@ SequenceRunResult RunSequence(const FrameProvider& provider, Frontend* frontend,
 
 // Evaluation of the processed frames that have ground truth.
 struct RunEvaluation {
-  bool available = false;            // false: no (or too little) ground truth; see note
-  std::string note;                  // why the evaluation is missing, else ""
-  TrajectoryEvaluation sim3;         // Sim3-aligned (monocular) figures
-  double ate_rmse_se3 = 0.0;         // ATE RMSE after an SE3 alignment, metres
+  bool available = false;     // false: no (or too little) ground truth; see note
+  std::string note;           // why the evaluation is missing, else ""
+  TrajectoryEvaluation sim3;  // Sim3-aligned (monocular) figures
+  double ate_rmse_se3 = 0.0;  // ATE RMSE after an SE3 alignment, metres
 };
 
 // Evaluates the estimate of the frames that have ground truth (paired by frame, format

@@ -89,9 +89,9 @@ std::string MakeSequence(const std::string& tag) {
   static std::string base;
   if (base.empty()) {
     base = test::MakeTempDir("dfo_run_base");
-    const CommandResult r = RunCommand(
-        DFO_SYNTH_EXE, "--output " + base + " --frames " + std::to_string(kFrames) +
-                           " --seed 1 --threads 2");
+    const CommandResult r =
+        RunCommand(DFO_SYNTH_EXE, "--output " + base + " --frames " + std::to_string(kFrames) +
+                                      " --seed 1 --threads 2");
     if (r.status != 0) throw std::runtime_error("dfo_synth failed: " + r.err);
   }
   const std::string dir = test::MakeTempDir(tag);
@@ -277,7 +277,8 @@ TEST(DfoRunBadInput, DatasetWithoutDepthNeedsADepthSource) {
 
 TEST(DfoRunBadInput, DepthFullOfZerosIsLostNotACrash) {
   const std::string root = MakeSequence("dfo_run_zero_depth");
-  for (int i = 0; i < kFrames; ++i) io::WriteU16(FramePng(root, "depth_0", i), ImageU16(416, 128, 1));
+  for (int i = 0; i < kFrames; ++i)
+    io::WriteU16(FramePng(root, "depth_0", i), ImageU16(416, 128, 1));
   const std::string out = test::MakeTempDir("dfo_run_zero_depth_out");
   const CommandResult r = RunDfoRun(RunArgs(root, out));
   EXPECT_EQ(r.status, 0) << r.err;
