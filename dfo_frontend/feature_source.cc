@@ -36,9 +36,9 @@ void FeatureLevel::ZScore() {
 }
 
 void HandmadeFeatureOptions::Check() const {
-  internal::CheckOption(descriptor == "intensity_gradients" || descriptor == "rich",
-                        "handmade.descriptor", descriptor,
-                        "one of {intensity_gradients, rich}");
+  internal::CheckOption(
+      descriptor == "intensity" || descriptor == "intensity_gradients" || descriptor == "rich",
+      "handmade.descriptor", descriptor, "one of {intensity, intensity_gradients, rich}");
   internal::CheckOption(std::isfinite(blur_sigma_px) && blur_sigma_px >= 0.0 &&
                             blur_sigma_px <= 3.0,
                         "handmade.blur_sigma_px", blur_sigma_px, "in [0, 3]");
@@ -137,6 +137,7 @@ HandmadeFeatureSource::HandmadeFeatureSource(const HandmadeFeatureOptions& optio
 }
 
 int HandmadeFeatureSource::num_channels() const {
+  if (options_.descriptor == "intensity") return 1;
   return options_.descriptor == "rich" ? 5 : 3;
 }
 
@@ -164,8 +165,10 @@ FeaturePyramid HandmadeFeatureSource::Compute(const Frame& frame, int num_levels
     const ImageGradients g = ComputeGradients(gray);
     FeatureLevel level(gray.width(), gray.height(), channels, pyramid.camera(l));
     CopyChannel(gray, &level, 0);
-    CopyChannel(g.gx, &level, 1);
-    CopyChannel(g.gy, &level, 2);
+    if (channels >= 3) {
+      CopyChannel(g.gx, &level, 1);
+      CopyChannel(g.gy, &level, 2);
+    }
     if (channels == 5) {
       CopyChannel(BoxBlur3(gray), &level, 3);
       float* mag = level.Channel(4);

@@ -74,13 +74,16 @@ class FeatureSource {
 // Options of the hand-made feature source.
 struct HandmadeFeatureOptions {
   // Which channels to compute from the grey image of each level:
+  //  "intensity": the intensity alone (1 channel, DSO-like photometric alignment);
   //  "intensity_gradients": intensity, d/dx, d/dy (3 channels, the minimum the issue asks for);
   //  "rich": those three plus a box-blurred (3x3) intensity and the gradient magnitude (5).
   std::string descriptor = "intensity_gradients";
   // Standard deviation (pixels) of a Gaussian blur of each level's grey image before the
   // channels are computed; 0 = none. In [0, 3]. Mild smoothing widens the convergence basin
-  // (the paper smooths its feature maps with a 3x3 Gaussian as well).
-  double blur_sigma_px = 0.0;
+  // (the paper smooths its feature maps with a 3x3 Gaussian as well). Measured on the synthetic
+  // street sequence: with 0, pitch/yaw perturbations of 5 deg did not all converge; with 1.0
+  // all 24 single-axis 5 deg / 0.5 m perturbations did.
+  double blur_sigma_px = 1.0;
 
   // Throws ConfigError naming the field, its value and the rule.
   void Check() const;

@@ -1,21 +1,189 @@
-// Stub (replaced below in this session).
 #include "dfo_frontend/frontend.h"
+
+#include <chrono>
+#include <cmath>
+#include <sstream>
+
+#include "dfo_core/error.h"
+
 namespace dfo {
-struct Frontend::State {};
-Frontend::Frontend(const FrontendOptions& options) : options_(options), tracker_(options.tracker) {
-  options_.Check();
-  features_ = MakeFeatureSource(options_.features, options_.handmade);
-  depth_ = MakeDepthSource(options_.depth);
-  state_ = std::make_unique<State>();
+
+// What the frontend remembers between frames.
+struct Frontend::State {
+  bool has_reference = false;
+  int reference_index = -1;
+  SE3d world_from_ref;
+  double reference_mean_depth = 0.0;
+  int frames_since_reference = 0;
+  // Last good pose (the pose of lost frames and of a restart reference) and the one before it,
+  // for the constant-velocity motion model.
+  SE3d world_from_last;
+  bool has_motion = false;
+  SE3d last_from_prev;  // last inter-frame motion (identity when unknown)
+};
+
+namespace {
+
+double MsSince(std::chrono::steady_clock::time_point start) {
+  return std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start)
+      .count();
 }
+
+bool IsFinite(const SE3d& pose) {
+  return pose.translation().allFinite() && pose.quaternion().coeffs().allFinite();
+}
+
+void CheckFrame(const Frame& frame) {
+  std::ostringstream msg;
+  msg << "frame " << frame.index << ": ";
+  if (frame.image.empty()) {
+    msg << "the image is empty";
+    throw InputError(msg.str());
+  }
+  std::string why;
+  if (!frame.camera.IsValid(&why)) {
+    msg << "invalid camera: " << why;
+    throw InputError(msg.str());
+  }
+  if (frame.image.width() != frame.camera.width || frame.image.height() != frame.camera.height) {
+    msg << "image is " << frame.image.width() << "x" << frame.image.height()
+        << " but the camera is " << frame.camera.width << "x" << frame.camera.height
+        << "; they must be the same size";
+    throw InputError(msg.str());
+  }
+  if (!frame.depth_m.empty() &&
+      (frame.depth_m.width() != frame.image.width() ||
+       frame.depth_m.height() != frame.image.height() || frame.depth_m.channels() != 1)) {
+    msg << "depth map is " << frame.depth_m.width() << "x" << frame.depth_m.height() << "x"
+        << frame.depth_m.channels() << " but the image is " << frame.image.width() << "x"
+        << frame.image.height() << "; expected a 1-channel depth map of the image's size";
+    throw InputError(msg.str());
+  }
+}
+
+}  // namespace
+
+Frontend::Frontend(const FrontendOptions& options)
+    : options_((options.Check(), options)),
+      features_(MakeFeatureSource(options.features, options.handmade)),
+      depth_(MakeDepthSource(options.depth)),
+      tracker_(options.tracker),
+      state_(std::make_unique<State>()) {}
+
 Frontend::~Frontend() = default;
+
+const FrontendTimings& Frontend::last_timings() const { return timings_; }
+const FrontendOptions& Frontend::options() const { return options_; }
+
+void Frontend::Reset() {
+  state_ = std::make_unique<State>();
+  tracker_ = Tracker(options_.tracker);
+}
+
 TrackedFrame Frontend::Process(const Frame& frame) {
+  CheckFrame(frame);
+  timings_ = FrontendTimings();
+  State& s = *state_;
+  const int num_levels = options_.tracker.num_levels;
+
+  auto start = std::chrono::steady_clock::now();
+  const FeaturePyramid features = features_->Compute(frame, num_levels);
+  timings_.features_ms = MsSince(start);
+  start = std::chrono::steady_clock::now();
+  const DepthPyramid depth = depth_->Compute(frame, num_levels);
+  timings_.depth_ms = MsSince(start);
+
+  start = std::chrono::steady_clock::now();
   TrackedFrame out;
   out.index = frame.index;
   out.timestamp_ns = frame.timestamp_ns;
+
+  // A reference needs enough points: at least min_inliers_lost patches at the finest level.
+  const int min_points = std::max(options_.tracker.min_inliers_lost, 12);
+  auto make_reference = [&](const SE3d& world_from_cam) {
+    const int points = tracker_.SetReference(features, depth);
+    if (points < min_points) {
+      s.has_reference = false;
+      return false;
+    }
+    s.has_reference = true;
+    s.reference_index = frame.index;
+    s.world_from_ref = world_from_cam;
+    s.reference_mean_depth = tracker_.reference_mean_depth(0);
+    s.frames_since_reference = 0;
+    return true;
+  };
+
+  if (!s.has_reference) {
+    // First frame, or restart after a loss: this frame becomes the reference at the last good
+    // pose (the gap in the trajectory is the preceding lost frame(s)).
+    out.world_from_cam = s.world_from_last;
+    out.num_points = 0;
+    if (make_reference(s.world_from_last)) {
+      out.status = TrackingStatus::kReference;
+      out.is_new_reference = true;
+      out.reference_index = frame.index;
+      out.num_points = tracker_.num_reference_points(0);
+      out.num_inliers = out.num_points;
+      out.reference_mean_depth = s.reference_mean_depth;
+    } else {
+      out.status = TrackingStatus::kLost;  // e.g. a depth map full of zeros or NaN
+    }
+    s.has_motion = false;
+    s.last_from_prev = SE3d();
+    timings_.tracking_ms = MsSince(start);
+    return out;
+  }
+
+  // Hypotheses (DSO): constant velocity, zero, half, double motion from the last good frame.
+  const SE3d last_from_ref = s.world_from_last.Inverse() * s.world_from_ref;
+  const SE3d motion = s.has_motion ? s.last_from_prev : SE3d();
+  const TrackResult result = tracker_.Track(features, tracker_.MakeHypotheses(last_from_ref, motion));
+  out.reference_index = s.reference_index;
+  out.reference_mean_depth = s.reference_mean_depth;
+  out.num_points = result.num_points;
+  out.num_inliers = result.num_inliers;
+  out.rmse = result.rmse;
+  out.iterations = result.iterations;
+  const SE3d world_from_cam = s.world_from_ref * result.cur_from_ref.Inverse();
+  if (result.status == TrackingStatus::kLost || !IsFinite(world_from_cam)) {
+    out.status = TrackingStatus::kLost;
+    out.world_from_cam = s.world_from_last;  // the gap: the last good pose
+    out.ref_from_cam = s.world_from_ref.Inverse() * s.world_from_last;
+    s.has_reference = false;                 // the next frame starts a fresh reference
+    s.has_motion = false;
+    s.last_from_prev = SE3d();
+    timings_.tracking_ms = MsSince(start);
+    return out;
+  }
+  out.status = result.status;
+  out.world_from_cam = world_from_cam;
+  out.ref_from_cam = result.cur_from_ref.Inverse();
+  s.last_from_prev = world_from_cam.Inverse() * s.world_from_last;
+  s.has_motion = true;
+  s.world_from_last = world_from_cam;
+  ++s.frames_since_reference;
+
+  // Reference switch (ReferenceOptions): distance relative to the mean depth, rotation, inlier
+  // ratio, interval. A frame whose own depth is too sparse cannot become a reference.
+  const ReferenceOptions& ro = options_.reference;
+  const double distance_ratio =
+      s.reference_mean_depth > 0.0 ? out.ref_from_cam.translation().norm() / s.reference_mean_depth
+                                   : 0.0;
+  const double rotation_deg = out.ref_from_cam.so3().Angle() * 180.0 / M_PI;
+  const bool switch_reference = distance_ratio > ro.translation_ratio ||
+                                rotation_deg > ro.rotation_deg ||
+                                result.inlier_ratio < ro.min_inlier_ratio ||
+                                s.frames_since_reference >= ro.max_interval;
+  const int patch_pixels = options_.tracker.patch_size * options_.tracker.patch_size;
+  if (switch_reference && depth.NumValid(0) >= min_points * patch_pixels) {
+    if (make_reference(world_from_cam)) {
+      out.is_new_reference = true;
+    }
+    // else: the tracker has no usable reference now; the next frame restarts from itself.
+  }
+  timings_.tracking_ms = MsSince(start);
   return out;
 }
-const FrontendTimings& Frontend::last_timings() const { return timings_; }
-void Frontend::Reset() {}
-const FrontendOptions& Frontend::options() const { return options_; }
+
 }  // namespace dfo

@@ -20,6 +20,9 @@ void TrackerOptions::Check() const {
   CheckOption(min_cell_px >= 1, "tracker.min_cell_px", min_cell_px, ">= 1");
   CheckOption(std::isfinite(min_gradient) && min_gradient >= 0.0, "tracker.min_gradient",
               min_gradient, ">= 0");
+  CheckOption(std::isfinite(max_patch_depth_ratio) &&
+                  (max_patch_depth_ratio == 0.0 || max_patch_depth_ratio > 1.0),
+              "tracker.max_patch_depth_ratio", max_patch_depth_ratio, "0 (off) or > 1");
   CheckOption(!max_iterations.empty(), "tracker.max_iterations", "[]", "non-empty");
   for (size_t i = 0; i < max_iterations.size(); ++i) {
     CheckOption(max_iterations[i] >= 1, "tracker.max_iterations[" + std::to_string(i) + "]",

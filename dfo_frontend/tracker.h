@@ -42,6 +42,9 @@ struct TrackerOptions {
   // A candidate needs a feature gradient norm (z-score units per pixel, summed over channels in
   // quadrature) of at least this, >= 0. Avoids flat regions (sky, blank walls).
   double min_gradient = 0.05;
+  // Reject a candidate whose patch, grown by one pixel, spans depths with max / min above this
+  // (a depth edge: its colours mix surfaces with different parallax); 0 = off, else > 1.
+  double max_patch_depth_ratio = 0.0;
   // Gauss-Newton iteration limit per level, index = level; each >= 1. Shorter than num_levels:
   // the last value repeats.
   std::vector<int> max_iterations = {10, 15, 20, 30};
@@ -122,7 +125,8 @@ class Tracker {
 
   // Tracks `features` (same channel count and sizes as the reference) from the initial guesses
   // of cur_from_ref, tried in order (first = preferred, e.g. constant velocity); an empty list
-  // means identity. Guesses are expressed at the finest level's depth scale. Never throws on
+  // means identity. Trying stops once a hypothesis ends with RMSE <= max(good_enough_rmse,
+  // hypothesis_abandon_ratio x the last successful Track's RMSE) (DSO's re-track rule). Guesses are expressed at the finest level's depth scale. Never throws on
   // failure: a failed alignment is status kLost. Throws InputError on mismatched sizes and
   // InternalError without a reference.
   TrackResult Track(const FeaturePyramid& features, const std::vector<SE3d>& hypotheses);
@@ -157,6 +161,7 @@ class Tracker {
 
   TrackerOptions options_;
   std::vector<Level> levels_;  // reference data per level (complete type in tracker.cc)
+  double last_rmse_ = -1.0;    // finest RMSE of the last successful Track (-1: none)
 };
 
 }  // namespace dfo
