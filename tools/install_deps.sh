@@ -12,6 +12,7 @@ PACKAGES=(
   libceres-dev libsuitesparse-dev
   libtorch-dev
   liblcm-dev liblcm-bin
+  python3-torch
   googletest libgtest-dev libgmock-dev
   iproute2
 )
