@@ -83,6 +83,24 @@ int Tracker::num_reference_points(int level) const {
   return levels_[level].num_patches;
 }
 
+std::vector<Eigen::Vector2i> Tracker::reference_points(int level) const {
+  if (levels_.empty()) return {};
+  DFO_CHECK(level >= 0 && level < static_cast<int>(levels_.size())) << level;
+  return levels_[level].centers;
+}
+
+std::vector<float> Tracker::reference_depths(int level) const {
+  if (levels_.empty()) return {};
+  DFO_CHECK(level >= 0 && level < static_cast<int>(levels_.size())) << level;
+  const Level& lv = levels_[level];
+  std::vector<float> out;
+  const int centre = lv.patch_pixels / 2;  // K x K patch, row-major: the middle pixel
+  for (int i = 0; i < lv.num_patches; ++i) {
+    out.push_back(lv.points[static_cast<size_t>(i) * lv.patch_pixels + centre].z());
+  }
+  return out;
+}
+
 int Tracker::SetReference(const FeaturePyramid& features, const DepthPyramid& depth) {
   const int num_levels = options_.num_levels;
   if (features.num_levels() < num_levels || depth.num_levels() < num_levels) {
@@ -566,7 +584,11 @@ Eigen::VectorXd Tracker::InverseCompositionalResiduals(const FeaturePyramid& fea
     if (!ev.valid[i]) continue;
     for (int j = 0; j < P; ++j) {
       const size_t k = static_cast<size_t>(i) * P + j;
-      const Eigen::Vector2d u = lv.camera.Project(Eigen::Vector3d(warp * lv.points[k].cast<double>()));
+      // The exact reference pixel and depth (the float point would put u ~1e-5 px off the
+      // integer pixel, where bilinear interpolation has its kink).
+      const Eigen::Vector3d p = lv.camera.Unproject(Eigen::Vector2d(lv.pixels[k].cast<double>()),
+                                                    static_cast<double>(lv.points[k].z()));
+      const Eigen::Vector2d u = lv.camera.Project(Eigen::Vector3d(warp * p));
       const double x = std::clamp(u.x(), 0.0, ref.width - 1.0);
       const double y = std::clamp(u.y(), 0.0, ref.height - 1.0);
       const int x0 = std::min(static_cast<int>(x), ref.width - 2);

@@ -122,6 +122,10 @@ class Tracker {
   // the ratios), and of the finest level.
   double reference_mean_depth(int level = 0) const;
   int num_reference_points(int level = 0) const;
+  // Patch centres (pixels) selected in the reference at `level`, in patch order.
+  std::vector<Eigen::Vector2i> reference_points(int level = 0) const;
+  // Depth (m) of those centres, in the same order.
+  std::vector<float> reference_depths(int level = 0) const;
 
   // Tracks `features` (same channel count and sizes as the reference) from the initial guesses
   // of cur_from_ref, tried in order (first = preferred, e.g. constant velocity); an empty list
