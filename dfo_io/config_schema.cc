@@ -69,11 +69,12 @@ ConfigSchema BuildSchema() {
               "depth_0/); there is no depth network yet, so a dataset without depth cannot run")
       .OneOf({"gt"});
   s.AddString("frontend.handmade_descriptor", "intensity_gradients",
-              "Hand-made channels: intensity and its x/y gradients (3), or rich = those plus a "
-              "3x3-blurred intensity and the gradient magnitude (5)")
-      .OneOf({"intensity_gradients", "rich"});
-  s.AddDouble("frontend.handmade_blur_sigma_px", 0.0,
-              "Gaussian blur (pixels) of each level's grey image before the hand-made channels; "
+              "Hand-made channels: intensity alone (1), intensity and its x/y gradients (3), or "
+              "rich = those plus a 3x3-blurred intensity and the gradient magnitude (5)")
+      .OneOf({"intensity", "intensity_gradients", "rich"});
+  s.AddDouble("frontend.handmade_blur_sigma_px", 1.0,
+              "Gaussian blur (pixels) of each level's grey image before the hand-made channels "
+              "(widens the convergence basin); "
               "0 = none")
       .Min(0)
       .Max(3);
@@ -87,6 +88,10 @@ ConfigSchema BuildSchema() {
   s.AddInt("tracker.min_cell_px", 2, "Smallest point-selection grid cell side in pixels").Min(1);
   s.AddDouble("tracker.min_gradient", 0.05,
               "Least feature gradient norm of a selected point (z-score units per pixel)")
+      .Min(0);
+  s.AddDouble("tracker.max_patch_depth_ratio", 0.0,
+              "Reject a point whose patch (grown by a pixel) spans depths with max / min above "
+              "this (a depth edge); 0 = off, else > 1")
       .Min(0);
   s.AddIntList("tracker.max_iterations", {10, 15, 20, 30},
                "Gauss-Newton iteration limit per level, index = level (the last value repeats)")
@@ -112,8 +117,7 @@ ConfigSchema BuildSchema() {
   s.AddDouble("tracker.min_inlier_ratio_ok", 0.5, "Status ok needs at least this inlier ratio")
       .Min(0)
       .Max(1);
-  s.AddDouble("tracker.max_rmse_ok", 0.5, "Status ok needs an RMSE of at most this")
-      .GreaterThan(0);
+  s.AddDouble("tracker.max_rmse_ok", 0.5, "Status ok needs an RMSE of at most this").GreaterThan(0);
   s.AddInt("tracker.min_inliers_lost", 30, "Status lost below this many inliers").Min(0);
   s.AddDouble("tracker.max_rmse_lost", 1.0, "Status lost above this RMSE").GreaterThan(0);
 
@@ -138,7 +142,8 @@ ConfigSchema BuildSchema() {
   s.AddString("run.output_dir", "results",
               "Folder for trajectories, metrics and config_effective.yaml (created)");
   s.AddBool("run.deterministic", true,
-            "Identical results run to run (fixed seeds, ordered reductions), possibly slower");
+            "Identical results run to run (fixed seeds, ordered reductions), possibly slower; "
+            "the current frontend is deterministic either way");
   s.AddInt("run.threads", 2,
            "Worker threads of the frontend (FrontendOptions::num_threads); 0 = all hardware "
            "threads")

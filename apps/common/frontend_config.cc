@@ -24,6 +24,7 @@ FrontendOptions FrontendOptionsFromConfig(const io::Config& config) {
   t.max_points = config.GetInt("tracker.max_points");
   t.min_cell_px = config.GetInt("tracker.min_cell_px");
   t.min_gradient = config.GetDouble("tracker.min_gradient");
+  t.max_patch_depth_ratio = config.GetDouble("tracker.max_patch_depth_ratio");
   t.max_iterations = config.GetIntList("tracker.max_iterations");
   t.convergence_threshold = config.GetDoubleList("tracker.convergence_threshold");
   t.outlier_rule = config.GetBool("tracker.outlier_rule");

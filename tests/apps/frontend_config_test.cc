@@ -29,6 +29,7 @@ TEST(FrontendConfig, SchemaDefaultsEqualFrontendOptionsDefaults) {
   EXPECT_EQ(t.max_points, d.tracker.max_points);
   EXPECT_EQ(t.min_cell_px, d.tracker.min_cell_px);
   EXPECT_EQ(t.min_gradient, d.tracker.min_gradient);
+  EXPECT_EQ(t.max_patch_depth_ratio, d.tracker.max_patch_depth_ratio);
   EXPECT_EQ(t.max_iterations, d.tracker.max_iterations);
   EXPECT_EQ(t.convergence_threshold, d.tracker.convergence_threshold);
   EXPECT_EQ(t.outlier_rule, d.tracker.outlier_rule);
@@ -65,6 +66,7 @@ TEST(FrontendConfig, EveryKeyReachesItsField) {
       "  max_points: 321\n"
       "  min_cell_px: 3\n"
       "  min_gradient: 0.125\n"
+      "  max_patch_depth_ratio: 1.5\n"
       "  max_iterations: [4, 5, 6]\n"
       "  convergence_threshold: [0.001, 0.002]\n"
       "  outlier_rule: false\n"
@@ -92,6 +94,7 @@ TEST(FrontendConfig, EveryKeyReachesItsField) {
   EXPECT_EQ(o.tracker.max_points, 321);
   EXPECT_EQ(o.tracker.min_cell_px, 3);
   EXPECT_EQ(o.tracker.min_gradient, 0.125);
+  EXPECT_EQ(o.tracker.max_patch_depth_ratio, 1.5);
   EXPECT_EQ(o.tracker.max_iterations, (std::vector<int>{4, 5, 6}));
   EXPECT_EQ(o.tracker.convergence_threshold, (std::vector<double>{0.001, 0.002}));
   EXPECT_FALSE(o.tracker.outlier_rule);
