@@ -13,12 +13,12 @@ namespace dfo {
 
 // One input frame at the working resolution.
 struct Frame {
-  int index = 0;              // frame number in the sequence, 0-based
-  int64_t timestamp_ns = 0;   // time of the frame in nanoseconds
-  ImageU8 image;              // gray (1 channel) or RGB (3 channels), size camera.width x height
-  ImageF depth_m;             // optional depth in metres (ground truth), same size as image,
-                              // 0 (or non-finite) = invalid; empty = no depth
-  PinholeCamera camera;       // intrinsics at the working resolution
+  int index = 0;             // frame number in the sequence, 0-based
+  int64_t timestamp_ns = 0;  // time of the frame in nanoseconds
+  ImageU8 image;             // gray (1 channel) or RGB (3 channels), size camera.width x height
+  ImageF depth_m;            // optional depth in metres (ground truth), same size as image,
+                             // 0 (or non-finite) = invalid; empty = no depth
+  PinholeCamera camera;      // intrinsics at the working resolution
 };
 
 // What happened to a frame in the frontend.
@@ -36,18 +36,18 @@ const char* TrackingStatusName(TrackingStatus status);
 
 // The frontend's result for one frame.
 struct TrackedFrame {
-  int index = 0;               // Frame::index
-  int64_t timestamp_ns = 0;    // Frame::timestamp_ns
+  int index = 0;             // Frame::index
+  int64_t timestamp_ns = 0;  // Frame::timestamp_ns
   TrackingStatus status = TrackingStatus::kLost;
-  SE3d world_from_cam;         // pose estimate of this frame (camera-to-world)
-  int reference_index = -1;    // index of the frame tracked against (-1: none)
-  SE3d ref_from_cam;           // pose relative to that reference (reference-from-this-camera)
+  SE3d world_from_cam;            // pose estimate of this frame (camera-to-world)
+  int reference_index = -1;       // index of the frame tracked against (-1: none)
+  SE3d ref_from_cam;              // pose relative to that reference (reference-from-this-camera)
   bool is_new_reference = false;  // this frame is the reference for the following frames
-  int num_points = 0;          // points (patches) selected in the reference at the finest level
-  int num_inliers = 0;         // points kept by the outlier rule at the finest level
-  double rmse = 0.0;           // final RMS residual per feature value over the inliers (z-score
-                               // units: 0 = perfect, ~1.4 = unrelated features)
-  int iterations = 0;          // Gauss-Newton iterations over all levels and hypotheses
+  int num_points = 0;             // points (patches) selected in the reference at the finest level
+  int num_inliers = 0;            // points kept by the outlier rule at the finest level
+  double rmse = 0.0;              // final RMS residual per feature value over the inliers (z-score
+                                  // units: 0 = perfect, ~1.4 = unrelated features)
+  int iterations = 0;             // Gauss-Newton iterations over all levels and hypotheses
   double reference_mean_depth = 0.0;  // mean valid depth of the reference at the finest level (m)
 };
 

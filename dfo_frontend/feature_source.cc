@@ -39,9 +39,9 @@ void HandmadeFeatureOptions::Check() const {
   internal::CheckOption(
       descriptor == "intensity" || descriptor == "intensity_gradients" || descriptor == "rich",
       "handmade.descriptor", descriptor, "one of {intensity, intensity_gradients, rich}");
-  internal::CheckOption(std::isfinite(blur_sigma_px) && blur_sigma_px >= 0.0 &&
-                            blur_sigma_px <= 3.0,
-                        "handmade.blur_sigma_px", blur_sigma_px, "in [0, 3]");
+  internal::CheckOption(
+      std::isfinite(blur_sigma_px) && blur_sigma_px >= 0.0 && blur_sigma_px <= 3.0,
+      "handmade.blur_sigma_px", blur_sigma_px, "in [0, 3]");
 }
 
 namespace {

@@ -138,7 +138,8 @@ TrackedFrame Frontend::Process(const Frame& frame) {
   // Hypotheses (DSO): constant velocity, zero, half, double motion from the last good frame.
   const SE3d last_from_ref = s.world_from_last.Inverse() * s.world_from_ref;
   const SE3d motion = s.has_motion ? s.last_from_prev : SE3d();
-  const TrackResult result = tracker_.Track(features, tracker_.MakeHypotheses(last_from_ref, motion));
+  const TrackResult result =
+      tracker_.Track(features, tracker_.MakeHypotheses(last_from_ref, motion));
   out.reference_index = s.reference_index;
   out.reference_mean_depth = s.reference_mean_depth;
   out.num_points = result.num_points;
@@ -150,7 +151,7 @@ TrackedFrame Frontend::Process(const Frame& frame) {
     out.status = TrackingStatus::kLost;
     out.world_from_cam = s.world_from_last;  // the gap: the last good pose
     out.ref_from_cam = s.world_from_ref.Inverse() * s.world_from_last;
-    s.has_reference = false;                 // the next frame starts a fresh reference
+    s.has_reference = false;  // the next frame starts a fresh reference
     s.has_motion = false;
     s.last_from_prev = SE3d();
     timings_.tracking_ms = MsSince(start);
@@ -167,14 +168,13 @@ TrackedFrame Frontend::Process(const Frame& frame) {
   // Reference switch (ReferenceOptions): distance relative to the mean depth, rotation, inlier
   // ratio, interval. A frame whose own depth is too sparse cannot become a reference.
   const ReferenceOptions& ro = options_.reference;
-  const double distance_ratio =
-      s.reference_mean_depth > 0.0 ? out.ref_from_cam.translation().norm() / s.reference_mean_depth
-                                   : 0.0;
+  const double distance_ratio = s.reference_mean_depth > 0.0
+                                    ? out.ref_from_cam.translation().norm() / s.reference_mean_depth
+                                    : 0.0;
   const double rotation_deg = out.ref_from_cam.so3().Angle() * 180.0 / M_PI;
-  const bool switch_reference = distance_ratio > ro.translation_ratio ||
-                                rotation_deg > ro.rotation_deg ||
-                                result.inlier_ratio < ro.min_inlier_ratio ||
-                                s.frames_since_reference >= ro.max_interval;
+  const bool switch_reference =
+      distance_ratio > ro.translation_ratio || rotation_deg > ro.rotation_deg ||
+      result.inlier_ratio < ro.min_inlier_ratio || s.frames_since_reference >= ro.max_interval;
   const int patch_pixels = options_.tracker.patch_size * options_.tracker.patch_size;
   if (switch_reference && depth.NumValid(0) >= min_points * patch_pixels) {
     if (make_reference(world_from_cam)) {

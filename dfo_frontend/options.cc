@@ -28,8 +28,7 @@ void TrackerOptions::Check() const {
     CheckOption(max_iterations[i] >= 1, "tracker.max_iterations[" + std::to_string(i) + "]",
                 max_iterations[i], ">= 1");
   }
-  CheckOption(!convergence_threshold.empty(), "tracker.convergence_threshold", "[]",
-              "non-empty");
+  CheckOption(!convergence_threshold.empty(), "tracker.convergence_threshold", "[]", "non-empty");
   for (size_t i = 0; i < convergence_threshold.size(); ++i) {
     CheckOption(std::isfinite(convergence_threshold[i]) && convergence_threshold[i] > 0.0,
                 "tracker.convergence_threshold[" + std::to_string(i) + "]",
@@ -70,8 +69,7 @@ void ReferenceOptions::Check() const {
               "reference.translation_ratio", translation_ratio, "> 0");
   CheckOption(std::isfinite(rotation_deg) && rotation_deg > 0.0, "reference.rotation_deg",
               rotation_deg, "> 0");
-  CheckOption(std::isfinite(min_inlier_ratio) && min_inlier_ratio >= 0.0 &&
-                  min_inlier_ratio <= 1.0,
+  CheckOption(std::isfinite(min_inlier_ratio) && min_inlier_ratio >= 0.0 && min_inlier_ratio <= 1.0,
               "reference.min_inlier_ratio", min_inlier_ratio, "in [0, 1]");
   CheckOption(max_interval >= 1, "reference.max_interval", max_interval, ">= 1");
 }

@@ -47,14 +47,13 @@ constexpr int kMinPatchesPerLevel = 12;
 
 // Per-patch quantities of one evaluation at a pose.
 struct Evaluation {
-  std::vector<uint8_t> valid;  // patch fully inside the current image, in front of the camera
-  std::vector<float> energy;   // squared residual norm over the patch (all pixels and channels)
+  std::vector<uint8_t> valid;      // patch fully inside the current image, in front of the camera
+  std::vector<float> energy;       // squared residual norm over the patch (all pixels and channels)
   std::vector<Vector6d> gradient;  // sum J^T r over the patch
   int num_valid = 0;
 };
 
-void CheckPyramidsMatch(const FeatureLevel& a, const FeatureLevel& b, int level,
-                        const char* what) {
+void CheckPyramidsMatch(const FeatureLevel& a, const FeatureLevel& b, int level, const char* what) {
   if (a.width != b.width || a.height != b.height || a.channels != b.channels) {
     std::ostringstream msg;
     msg << what << ": level " << level << " features are " << b.width << "x" << b.height << "x"
@@ -105,8 +104,8 @@ int Tracker::SetReference(const FeaturePyramid& features, const DepthPyramid& de
   const int num_levels = options_.num_levels;
   if (features.num_levels() < num_levels || depth.num_levels() < num_levels) {
     std::ostringstream msg;
-    msg << "tracker reference: " << features.num_levels() << " feature and "
-        << depth.num_levels() << " depth levels given; tracker.num_levels = " << num_levels
+    msg << "tracker reference: " << features.num_levels() << " feature and " << depth.num_levels()
+        << " depth levels given; tracker.num_levels = " << num_levels
         << " needs at least that many of each";
     throw InputError(msg.str());
   }
@@ -124,8 +123,8 @@ int Tracker::SetReference(const FeaturePyramid& features, const DepthPyramid& de
           << "; expected a 1-channel depth map of the same size";
       throw InputError(msg.str());
     }
-    DFO_CHECK(f.channels >= 1 && f.data.size() == static_cast<size_t>(f.width) * f.height *
-                                                        f.channels)
+    DFO_CHECK(f.channels >= 1 &&
+              f.data.size() == static_cast<size_t>(f.width) * f.height * f.channels)
         << "level " << l;
     Level& lv = levels[l];
     lv.camera = f.camera;
@@ -141,12 +140,10 @@ int Tracker::SetReference(const FeaturePyramid& features, const DepthPyramid& de
     // Point selection: the best-gradient pixel of each grid cell whose whole patch has valid
     // depth (DSO's bucketing keeps points spread over the image); with a mask, only mask pixels.
     const int inner_w = w - 2 * border, inner_h = h - 2 * border;
-    const int cell = std::max(
-        options_.min_cell_px,
-        static_cast<int>(std::ceil(std::sqrt(static_cast<double>(inner_w) * inner_h /
-                                             options_.max_points))));
-    const float min_grad_sq =
-        static_cast<float>(options_.min_gradient * options_.min_gradient);
+    const int cell = std::max(options_.min_cell_px,
+                              static_cast<int>(std::ceil(std::sqrt(
+                                  static_cast<double>(inner_w) * inner_h / options_.max_points))));
+    const float min_grad_sq = static_cast<float>(options_.min_gradient * options_.min_gradient);
     auto gradient_sq = [&](int x, int y) {
       float s = 0.0f;
       for (int c = 0; c < C; ++c) {
@@ -226,7 +223,8 @@ int Tracker::SetReference(const FeaturePyramid& features, const DepthPyramid& de
             const double gx = 0.5 * (f.At(c, x + 1, y) - f.At(c, x - 1, y));
             const double gy = 0.5 * (f.At(c, x, y + 1) - f.At(c, x, y - 1));
             const Eigen::Matrix<double, 1, 6> j = gx * du_ddelta.row(0) + gy * du_ddelta.row(1);
-            for (int m = 0; m < 6; ++m) lv.jacobians[(k * C + c) * 6 + m] = static_cast<float>(j(m));
+            for (int m = 0; m < 6; ++m)
+              lv.jacobians[(k * C + c) * 6 + m] = static_cast<float>(j(m));
             lv.hessians[i] += j.transpose() * j;
           }
         }
@@ -244,8 +242,8 @@ namespace {
 // and gradient J^T r. A patch is valid when all its pixels project in front of the camera and
 // inside the image (bilinear needs [0, w-1] x [0, h-1]).
 template <typename LevelT>
-void Evaluate(const LevelT& lv, const FeatureLevel& cur, const SE3d& cur_from_ref,
-              Evaluation* ev, std::vector<float>* residuals_out = nullptr) {
+void Evaluate(const LevelT& lv, const FeatureLevel& cur, const SE3d& cur_from_ref, Evaluation* ev,
+              std::vector<float>* residuals_out = nullptr) {
   const int C = lv.channels;
   const int P = lv.patch_pixels;
   const Eigen::Matrix3f R = cur_from_ref.rotationMatrix().cast<float>();
@@ -287,8 +285,8 @@ void Evaluate(const LevelT& lv, const FeatureLevel& cur, const SE3d& cur_from_re
       const float* jac = &lv.jacobians[k * C * 6];
       for (int c = 0; c < C; ++c) {
         const float* ch = cur.data.data() + c * plane + o;
-        const float value = w00 * ch[0] + w10 * ch[1] + w01 * ch[cur.width] +
-                            w11 * ch[cur.width + 1];
+        const float value =
+            w00 * ch[0] + w10 * ch[1] + w01 * ch[cur.width] + w11 * ch[cur.width + 1];
         const float res = ref[c] - value;
         r[static_cast<size_t>(j) * C + c] = res;
         energy += res * res;
@@ -315,16 +313,15 @@ double Tracker::OutlierThreshold(std::vector<double> squared_norms) {
   std::nth_element(squared_norms.begin(), squared_norms.begin() + n / 2, squared_norms.end());
   double median = squared_norms[n / 2];
   if (n % 2 == 0) {
-    median = 0.5 * (median + *std::max_element(squared_norms.begin(),
-                                               squared_norms.begin() + n / 2));
+    median =
+        0.5 * (median + *std::max_element(squared_norms.begin(), squared_norms.begin() + n / 2));
   }
   // DFO paper: residuals whose squared norm exceeds 0.5 * (median + max) are outliers.
   return 0.5 * (median + max);
 }
 
 Tracker::LevelResult Tracker::AlignLevel(const FeaturePyramid& features, int level,
-                                         SE3d* cur_from_ref, double abandon_rmse) const {
-  (void)abandon_rmse;
+                                         SE3d* cur_from_ref) const {
   const Level& lv = levels_[level];
   const FeatureLevel& cur = features.levels[level];
   LevelResult result;
@@ -367,9 +364,9 @@ Tracker::LevelResult Tracker::AlignLevel(const FeaturePyramid& features, int lev
     result.stats.num_inliers = inliers;
     result.stats.iterations = iteration;
     result.stats.rmse =
-        inliers > 0 ? std::sqrt(energy / (static_cast<double>(inliers) * lv.patch_pixels *
-                                          lv.channels))
-                    : 0.0;
+        inliers > 0
+            ? std::sqrt(energy / (static_cast<double>(inliers) * lv.patch_pixels * lv.channels))
+            : 0.0;
     if (iteration >= max_iterations || inliers < kMinPatchesPerLevel) break;
     // Gauss-Newton step of the inverse-compositional problem: min |r + J delta|^2.
     const Vector6d delta = -H.ldlt().solve(b);
@@ -409,18 +406,18 @@ Tracker::LevelResult Tracker::AlignLevel(const FeaturePyramid& features, int lev
     }
   }
   *cur_from_ref = pose;
-  result.ok = result.stats.num_inliers >= kMinPatchesPerLevel &&
-              pose.translation().allFinite() && pose.quaternion().coeffs().allFinite();
+  result.ok = result.stats.num_inliers >= kMinPatchesPerLevel && pose.translation().allFinite() &&
+              pose.quaternion().coeffs().allFinite();
   return result;
 }
 
 std::vector<SE3d> Tracker::MakeHypotheses(const SE3d& last_from_ref, const SE3d& motion) const {
   std::vector<SE3d> out;
   const Vector6d log_motion = motion.Log();
-  out.push_back(motion * last_from_ref);                          // constant velocity
-  out.push_back(last_from_ref);                                   // zero motion
-  out.push_back(SE3d::Exp(0.5 * log_motion) * last_from_ref);     // half motion
-  out.push_back(motion * motion * last_from_ref);                 // double motion
+  out.push_back(motion * last_from_ref);                       // constant velocity
+  out.push_back(last_from_ref);                                // zero motion
+  out.push_back(SE3d::Exp(0.5 * log_motion) * last_from_ref);  // half motion
+  out.push_back(motion * motion * last_from_ref);              // double motion
   if (options_.rotation_hypotheses_deg > 0.0) {
     const double angle = options_.rotation_hypotheses_deg * M_PI / 180.0;
     for (int axis = 0; axis < 3; ++axis) {
@@ -439,8 +436,9 @@ TrackResult Tracker::Track(const FeaturePyramid& features, const std::vector<SE3
   const int num_levels = options_.num_levels;
   if (features.num_levels() < num_levels) {
     std::ostringstream msg;
-    msg << "tracker: " << features.num_levels() << " feature levels given; tracker.num_levels = "
-        << num_levels << " needs at least that many";
+    msg << "tracker: " << features.num_levels()
+        << " feature levels given; tracker.num_levels = " << num_levels
+        << " needs at least that many";
     throw InputError(msg.str());
   }
   for (int l = 0; l < num_levels; ++l) {
@@ -479,7 +477,7 @@ TrackResult Tracker::Track(const FeaturePyramid& features, const std::vector<SE3
         continue;  // too few points at this coarse level: skip it
       }
       SE3d level_pose = pose;
-      const LevelResult r = AlignLevel(features, l, &level_pose, best_level_rmse[l]);
+      const LevelResult r = AlignLevel(features, l, &level_pose);
       total_iterations += r.stats.iterations;
       stats[l] = r.stats;
       if (!r.ok) {
@@ -508,9 +506,9 @@ TrackResult Tracker::Track(const FeaturePyramid& features, const std::vector<SE3
       best.hypothesis = static_cast<int>(h);
     }
     // Good enough: stop trying (DSO stops when the residual is not worse than the last frame's).
-    const double good = std::max(options_.good_enough_rmse,
-                                 last_rmse_ > 0.0 ? options_.hypothesis_abandon_ratio * last_rmse_
-                                                  : 0.0);
+    const double good =
+        std::max(options_.good_enough_rmse,
+                 last_rmse_ > 0.0 ? options_.hypothesis_abandon_ratio * last_rmse_ : 0.0);
     if (best.rmse <= good) {
       best.hypotheses_tried = static_cast<int>(h) + 1;
       break;
@@ -595,10 +593,9 @@ Eigen::VectorXd Tracker::InverseCompositionalResiduals(const FeaturePyramid& fea
       const int y0 = std::min(static_cast<int>(y), ref.height - 2);
       const double ax = x - x0, ay = y - y0;
       for (int c = 0; c < C; ++c) {
-        const double f_ref = (1 - ax) * (1 - ay) * ref.At(c, x0, y0) +
-                             ax * (1 - ay) * ref.At(c, x0 + 1, y0) +
-                             (1 - ax) * ay * ref.At(c, x0, y0 + 1) +
-                             ax * ay * ref.At(c, x0 + 1, y0 + 1);
+        const double f_ref =
+            (1 - ax) * (1 - ay) * ref.At(c, x0, y0) + ax * (1 - ay) * ref.At(c, x0 + 1, y0) +
+            (1 - ax) * ay * ref.At(c, x0, y0 + 1) + ax * ay * ref.At(c, x0 + 1, y0 + 1);
         // r(delta) = F_ref(pi(Exp(delta) p)) - F_cur(pi(T p)) = r(0) + (F_ref(..) - F_ref(u)).
         out(row++) = r[k * C + c] + (f_ref - lv.values[k * C + c]);
       }

@@ -82,11 +82,11 @@ struct TrackerOptions {
 
 // Per-level outcome of the best hypothesis.
 struct TrackLevelStats {
-  int num_points = 0;    // patches selected in the reference at this level
-  int num_valid = 0;     // patches inside the current image at the last iteration
-  int num_inliers = 0;   // patches kept by the outlier rule at the last iteration
+  int num_points = 0;   // patches selected in the reference at this level
+  int num_valid = 0;    // patches inside the current image at the last iteration
+  int num_inliers = 0;  // patches kept by the outlier rule at the last iteration
   int iterations = 0;
-  double rmse = 0.0;     // RMS residual per feature value over the inliers
+  double rmse = 0.0;  // RMS residual per feature value over the inliers
 };
 
 // Result of Tracker::Track.
@@ -130,9 +130,9 @@ class Tracker {
   // Tracks `features` (same channel count and sizes as the reference) from the initial guesses
   // of cur_from_ref, tried in order (first = preferred, e.g. constant velocity); an empty list
   // means identity. Trying stops once a hypothesis ends with RMSE <= max(good_enough_rmse,
-  // hypothesis_abandon_ratio x the last successful Track's RMSE) (DSO's re-track rule). Guesses are expressed at the finest level's depth scale. Never throws on
-  // failure: a failed alignment is status kLost. Throws InputError on mismatched sizes and
-  // InternalError without a reference.
+  // hypothesis_abandon_ratio x the last successful Track's RMSE) (DSO's re-track rule). Guesses are
+  // expressed at the finest level's depth scale. Never throws on failure: a failed alignment is
+  // status kLost. Throws InputError on mismatched sizes and InternalError without a reference.
   TrackResult Track(const FeaturePyramid& features, const std::vector<SE3d>& hypotheses);
 
   // DSO's hypothesis list from a constant-velocity guess: {cv, zero, half, double} motion,
@@ -160,8 +160,7 @@ class Tracker {
  private:
   struct Level;
   struct LevelResult;
-  LevelResult AlignLevel(const FeaturePyramid& features, int level, SE3d* cur_from_ref,
-                         double abandon_rmse) const;
+  LevelResult AlignLevel(const FeaturePyramid& features, int level, SE3d* cur_from_ref) const;
 
   TrackerOptions options_;
   std::vector<Level> levels_;  // reference data per level (complete type in tracker.cc)

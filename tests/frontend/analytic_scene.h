@@ -79,8 +79,7 @@ class AnalyticScene {
           }
         }
         Trace(world_from_cam, frame.camera, x, y, plane_only, &depth, &value);
-        frame.image(x, y) =
-            static_cast<uint8_t>(std::clamp(sum / 9.0 * 255.0 + 0.5, 0.0, 255.0));
+        frame.image(x, y) = static_cast<uint8_t>(std::clamp(sum / 9.0 * 255.0 + 0.5, 0.0, 255.0));
         frame.depth_m(x, y) = static_cast<float>(depth);
       }
     }

@@ -84,11 +84,12 @@ TEST_F(FrontendTest, SixtyFramesSim3AteUnderHalfAPercentOfThePath) {
   const AteResult ate = ComputeAte(truth, aligned.aligned_estimate);
   const double path = truth.PathLength();
   const double se3_ate = ComputeAte(truth, estimate).stats.rmse;
-  std::printf("[ figures  ] %zu frames, path %.1f m, %d references: Sim3 ATE rmse %.4f m = %.3f %% "
-              "of the path (scale %.4f), unaligned ATE rmse %.4f m; median ms per frame: "
-              "tracking %.2f, features %.2f\n",
-              truth.size(), path, references, ate.stats.rmse, 100.0 * ate.stats.rmse / path,
-              aligned.transform.scale, se3_ate, Median(tracking_ms), Median(features_ms));
+  std::printf(
+      "[ figures  ] %zu frames, path %.1f m, %d references: Sim3 ATE rmse %.4f m = %.3f %% "
+      "of the path (scale %.4f), unaligned ATE rmse %.4f m; median ms per frame: "
+      "tracking %.2f, features %.2f\n",
+      truth.size(), path, references, ate.stats.rmse, 100.0 * ate.stats.rmse / path,
+      aligned.transform.scale, se3_ate, Median(tracking_ms), Median(features_ms));
   EXPECT_LT(ate.stats.rmse, 0.005 * path);
   EXPECT_GT(references, 1);
 }

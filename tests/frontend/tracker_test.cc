@@ -104,10 +104,11 @@ TEST_F(TrackerTest, RecoversWholePixelShiftOfAPlaneExactly) {
   EXPECT_EQ(r.status, TrackingStatus::kOk);
   EXPECT_LT(RotationErrorDeg(r.cur_from_ref, truth), 1e-3);
   EXPECT_LT(TranslationError(r.cur_from_ref, truth), 1e-4 * step.norm());
-  std::printf("[ figures  ] exact plane shift: rotation error %.2e deg, translation error %.2e of "
-              "the step, rmse %.2e\n",
-              RotationErrorDeg(r.cur_from_ref, truth),
-              TranslationError(r.cur_from_ref, truth) / step.norm(), r.rmse);
+  std::printf(
+      "[ figures  ] exact plane shift: rotation error %.2e deg, translation error %.2e of "
+      "the step, rmse %.2e\n",
+      RotationErrorDeg(r.cur_from_ref, truth),
+      TranslationError(r.cur_from_ref, truth) / step.norm(), r.rmse);
 }
 
 // Consecutive frames of the street sequence (0.6-1.2 m steps), tracked from the zero-motion
@@ -135,8 +136,10 @@ TEST_F(TrackerTest, RecoversConsecutiveStreetPosesToRenderingAccuracy) {
     max_rot = std::max(max_rot, rot);
     max_trans_ratio = std::max(max_trans_ratio, ratio);
   }
-  std::printf("[ figures  ] street pairs: max rotation error %.4f deg, max translation error %.2f %% "
-              "of the step\n", max_rot, 100.0 * max_trans_ratio);
+  std::printf(
+      "[ figures  ] street pairs: max rotation error %.4f deg, max translation error %.2f %% "
+      "of the step\n",
+      max_rot, 100.0 * max_trans_ratio);
 }
 
 // Convergence basin. Measured (default options, pairs 10->11 and 40->41, single-axis
@@ -168,8 +171,8 @@ TEST_F(TrackerTest, ConvergesFromFiveDegreesAndHalfAMetre) {
     }
     for (const Vector6d& xi : perturbations) {
       const TrackResult r = tracker.Track(cur.features, {SE3d::Exp(xi) * truth});
-      EXPECT_NE(r.status, TrackingStatus::kLost) << "pair " << i << " perturbation "
-                                                 << xi.transpose();
+      EXPECT_NE(r.status, TrackingStatus::kLost)
+          << "pair " << i << " perturbation " << xi.transpose();
       EXPECT_LT(RotationErrorDeg(r.cur_from_ref, truth), 0.05)
           << "pair " << i << " perturbation " << xi.transpose();
       EXPECT_LT(TranslationError(r.cur_from_ref, truth), 0.03)
@@ -221,11 +224,11 @@ TEST(TrackerOutlierRule, ThresholdIsHalfOfMedianPlusMax) {
   EXPECT_DOUBLE_EQ(Tracker::OutlierThreshold({}), 0.0);
 }
 
-// Injected outliers: around where every 2nd reference patch (if isolated) lands in the current frame (clean
-// estimate), a 5 x 5 block of the current features is overwritten by 8 (far outside z-scored
-// values) at the finest level, so that every corrupted patch has about the same, largest residual
-// (the rule 0.5 (median + max) is meant for such gross outliers: residuals of half the largest
-// one survive it). The outlier rule must drop at least that many patches at the finest
+// Injected outliers: around where every 2nd reference patch (if isolated) lands in the current
+// frame (clean estimate), a 5 x 5 block of the current features is overwritten by 8 (far outside
+// z-scored values) at the finest level, so that every corrupted patch has about the same, largest
+// residual (the rule 0.5 (median + max) is meant for such gross outliers: residuals of half the
+// largest one survive it). The outlier rule must drop at least that many patches at the finest
 // level, keep the pose within 0.02 deg / 5 mm of the clean estimate, and do better than the
 // same alignment without the rule.
 TEST_F(TrackerTest, OutlierRuleDropsInjectedOutliers) {
@@ -254,7 +257,8 @@ TEST_F(TrackerTest, OutlierRuleDropsInjectedOutliers) {
       const Eigen::Vector2d u = f.camera.Project(Vector3d(clean.cur_from_ref * p));
       if (!f.camera.IsInImage(u, 3.0)) continue;
       if (l == 0) ++corrupted;
-      const int cx = static_cast<int>(std::lround(u.x())), cy = static_cast<int>(std::lround(u.y()));
+      const int cx = static_cast<int>(std::lround(u.x())),
+                cy = static_cast<int>(std::lround(u.y()));
       for (int c = 0; c < f.channels; ++c) {
         for (int y = cy - 2; y <= cy + 2; ++y) {
           for (int x = cx - 2; x <= cx + 2; ++x) {
@@ -280,9 +284,10 @@ TEST_F(TrackerTest, OutlierRuleDropsInjectedOutliers) {
   const double robust_error = TranslationError(robust.cur_from_ref, clean.cur_from_ref);
   const double naive_error = TranslationError(naive.cur_from_ref, clean.cur_from_ref);
   EXPECT_GT(naive_error, 2.0 * robust_error);
-  std::printf("[ figures  ] injected outliers: %d corrupted, %d dropped; deviation from the clean "
-              "pose %.4f m with the rule, %.4f m without\n",
-              corrupted, dropped, robust_error, naive_error);
+  std::printf(
+      "[ figures  ] injected outliers: %d corrupted, %d dropped; deviation from the clean "
+      "pose %.4f m with the rule, %.4f m without\n",
+      corrupted, dropped, robust_error, naive_error);
 }
 
 TEST_F(TrackerTest, ZeroOrNanDepthIsLostNotAnError) {
@@ -331,8 +336,7 @@ TEST(TrackerOptionsTest, CheckNamesTheField) {
     options.Check();
     FAIL() << "no error";
   } catch (const ConfigError& e) {
-    EXPECT_NE(std::string(e.what()).find("tracker.patch_size = 4 violates odd"),
-              std::string::npos)
+    EXPECT_NE(std::string(e.what()).find("tracker.patch_size = 4 violates odd"), std::string::npos)
         << e.what();
   }
   options = TrackerOptions();
