@@ -1,0 +1,395 @@
+#include "dfo_frontend/learned/internal/networks.h"
+
+#include <ATen/CPUGeneratorImpl.h>
+
+#include <cmath>
+#include <sstream>
+#include <string>
+
+#include "dfo_core/error.h"
+#include "dfo_frontend/internal/check_util.h"
+
+namespace dfo::learned {
+
+namespace F = torch::nn::functional;
+using internal::CheckOption;
+
+namespace {
+
+template <typename T>
+std::string ListString(const std::vector<T>& v) {
+  std::ostringstream s;
+  s << "[";
+  for (size_t i = 0; i < v.size(); ++i) s << (i ? ", " : "") << v[i];
+  s << "]";
+  return s.str();
+}
+
+template <typename T>
+void CheckListSize(const std::vector<T>& v, size_t expected, const std::string& field,
+                   const std::string& expected_what) {
+  if (v.size() == expected) return;
+  std::ostringstream msg;
+  msg << "network." << field << " = " << ListString(v) << " has " << v.size()
+      << " entries; expected " << expected_what << " = " << expected;
+  throw ConfigError(msg.str());
+}
+
+void CheckWidths(const std::vector<int>& v, const std::string& field, int lo, int hi) {
+  for (size_t i = 0; i < v.size(); ++i) {
+    CheckOption(v[i] >= lo && v[i] <= hi, "network." + field + "[" + std::to_string(i) + "]", v[i],
+                "in [" + std::to_string(lo) + ", " + std::to_string(hi) + "]");
+  }
+}
+
+torch::nn::Conv2d Conv(int in, int out, int kernel, int stride = 1) {
+  return torch::nn::Conv2d(
+      torch::nn::Conv2dOptions(in, out, kernel).stride(stride).padding(kernel / 2));
+}
+
+// Nearest-neighbour upsampling to an exact size (sizes need not be exact multiples of 2: the
+// stride-2 encoder rounds odd sizes up).
+torch::Tensor UpsampleTo(const torch::Tensor& x, int64_t height, int64_t width) {
+  return F::interpolate(
+      x,
+      F::InterpolateFuncOptions().size(std::vector<int64_t>{height, width}).mode(torch::kNearest));
+}
+
+void CheckInput(const torch::Tensor& image, const NetworkOptions& options, const char* who) {
+  DFO_CHECK(image.dim() == 4 && image.size(1) == 3)
+      << who << ": expected an N x 3 x H x W image, got " << image.sizes();
+  const int64_t div = int64_t{1} << (options.num_levels - 1);
+  DFO_CHECK(image.size(2) % div == 0 && image.size(3) % div == 0)
+      << who << ": image " << image.size(3) << " x " << image.size(2)
+      << " has sides not divisible by 2^(num_levels - 1) = " << div;
+}
+
+}  // namespace
+
+// ---------------------------------------------------------------------------------------------
+// Options
+
+void NetworkOptions::Check() const {
+  CheckOption(num_levels >= 1 && num_levels <= 6, "network.num_levels", num_levels, "in [1, 6]");
+  const int div = 1 << (num_levels - 1);
+  CheckOption(input_width >= 8 && input_width % div == 0, "network.input_width", input_width,
+              ">= 8 and divisible by 2^(num_levels - 1) = " + std::to_string(div));
+  CheckOption(input_height >= 8 && input_height % div == 0, "network.input_height", input_height,
+              ">= 8 and divisible by 2^(num_levels - 1) = " + std::to_string(div));
+  const size_t levels = static_cast<size_t>(num_levels);
+  CheckListSize(channels, levels, "channels", "num_levels");
+  CheckWidths(channels, "channels", 1, 256);
+  CheckListSize(patch_sizes, levels, "patch_sizes", "num_levels");
+  for (size_t i = 0; i < patch_sizes.size(); ++i) {
+    CheckOption(patch_sizes[i] >= 1 && patch_sizes[i] <= 9 && patch_sizes[i] % 2 == 1,
+                "network.patch_sizes[" + std::to_string(i) + "]", patch_sizes[i],
+                "odd and in [1, 9]");
+  }
+  CheckListSize(rho, levels, "rho", "num_levels");
+  for (size_t i = 0; i < rho.size(); ++i) {
+    CheckOption(std::isfinite(rho[i]) && rho[i] > 0.0 && rho[i] <= 1.0,
+                "network.rho[" + std::to_string(i) + "]", rho[i], "in (0, 1]");
+  }
+  CheckListSize(input_mean, 3, "input_mean", "RGB channels");
+  CheckListSize(input_std, 3, "input_std", "RGB channels");
+  for (int c = 0; c < 3; ++c) {
+    CheckOption(std::isfinite(input_mean[c]), "network.input_mean[" + std::to_string(c) + "]",
+                input_mean[c], "finite");
+    CheckOption(std::isfinite(input_std[c]) && input_std[c] > 0.0,
+                "network.input_std[" + std::to_string(c) + "]", input_std[c], "> 0");
+  }
+  if (depth_encoder_widths.size() < levels) {
+    std::ostringstream msg;
+    msg << "network.depth_encoder_widths = " << ListString(depth_encoder_widths) << " has "
+        << depth_encoder_widths.size() << " entries; expected at least num_levels = " << num_levels;
+    throw ConfigError(msg.str());
+  }
+  CheckWidths(depth_encoder_widths, "depth_encoder_widths", 1, 1024);
+  CheckListSize(depth_decoder_widths, depth_encoder_widths.size(), "depth_decoder_widths",
+                "the size of depth_encoder_widths");
+  CheckWidths(depth_decoder_widths, "depth_decoder_widths", 1, 1024);
+  CheckListSize(feature_encoder_widths, levels, "feature_encoder_widths", "num_levels");
+  CheckWidths(feature_encoder_widths, "feature_encoder_widths", 1, 1024);
+  CheckListSize(feature_decoder_widths, levels, "feature_decoder_widths", "num_levels");
+  CheckWidths(feature_decoder_widths, "feature_decoder_widths", 1, 1024);
+  CheckOption(reconstruction_width >= 1 && reconstruction_width <= 1024,
+              "network.reconstruction_width", reconstruction_width, "in [1, 1024]");
+}
+
+int64_t NetworkOptions::LevelPixels(int width, int height, int level) {
+  return static_cast<int64_t>(width >> level) * static_cast<int64_t>(height >> level);
+}
+
+bool operator==(const NetworkOptions& a, const NetworkOptions& b) {
+  return a.input_width == b.input_width && a.input_height == b.input_height &&
+         a.num_levels == b.num_levels && a.channels == b.channels &&
+         a.patch_sizes == b.patch_sizes && a.rho == b.rho && a.input_mean == b.input_mean &&
+         a.input_std == b.input_std && a.depth_encoder_widths == b.depth_encoder_widths &&
+         a.depth_decoder_widths == b.depth_decoder_widths &&
+         a.feature_encoder_widths == b.feature_encoder_widths &&
+         a.feature_decoder_widths == b.feature_decoder_widths &&
+         a.reconstruction_width == b.reconstruction_width;
+}
+
+// ---------------------------------------------------------------------------------------------
+// Small functions
+
+torch::Tensor DepthFromSigmoid(const torch::Tensor& sigmoid) {
+  // DFO paper / SfMLearner: disparity = 10 * s + 0.01, depth = 1 / disparity.
+  return 1.0 / (10.0 * sigmoid + 0.01);
+}
+
+torch::Tensor NormalizeImage(const torch::Tensor& image, const NetworkOptions& options) {
+  const auto opts = torch::TensorOptions().dtype(image.dtype()).device(image.device());
+  const torch::Tensor mean =
+      torch::tensor({options.input_mean[0], options.input_mean[1], options.input_mean[2]}, opts)
+          .view({1, 3, 1, 1});
+  const torch::Tensor inv_std =
+      torch::tensor(
+          {1.0 / options.input_std[0], 1.0 / options.input_std[1], 1.0 / options.input_std[2]},
+          opts)
+          .view({1, 3, 1, 1});
+  return (image - mean) * inv_std;
+}
+
+std::vector<torch::Tensor> ImagePyramid(const torch::Tensor& image, int num_levels) {
+  std::vector<torch::Tensor> out;
+  out.reserve(num_levels);
+  out.push_back(image);
+  for (int l = 1; l < num_levels; ++l) out.push_back(torch::avg_pool2d(out.back(), {2, 2}));
+  return out;
+}
+
+torch::Tensor GaussianKernel3x3() {
+  const torch::Tensor k1 = torch::tensor({1.0f, 2.0f, 1.0f}) / 4.0f;
+  return torch::outer(k1, k1);
+}
+
+torch::Tensor GaussianSmooth3x3(const torch::Tensor& x) {
+  const int64_t c = x.size(1);
+  const torch::Tensor w =
+      GaussianKernel3x3().to(x.options()).view({1, 1, 3, 3}).expand({c, 1, 3, 3}).contiguous();
+  const torch::Tensor padded = F::pad(x, F::PadFuncOptions({1, 1, 1, 1}).mode(torch::kReplicate));
+  return F::conv2d(padded, w, F::Conv2dFuncOptions().groups(c));
+}
+
+torch::Tensor GumbelSigmoid(const torch::Tensor& logits, double temperature,
+                            c10::optional<at::Generator> generator) {
+  DFO_CHECK(temperature > 0.0) << "Gumbel-sigmoid temperature " << temperature << " must be > 0";
+  // u in [eps, 1 - eps] keeps the logistic noise finite.
+  constexpr double kEps = 1e-6;
+  const torch::Tensor u =
+      torch::rand(logits.sizes(), generator, logits.options().requires_grad(false))
+          .clamp(kEps, 1.0 - kEps);
+  const torch::Tensor noise = torch::log(u) - torch::log1p(-u);
+  return torch::sigmoid((logits + noise) / temperature);
+}
+
+torch::Tensor HardTopMask(const torch::Tensor& logits, double rho) {
+  DFO_CHECK(logits.dim() == 4 && logits.size(1) == 1)
+      << "HardTopMask expects N x 1 x H x W logits, got " << logits.sizes();
+  DFO_CHECK(rho > 0.0 && rho <= 1.0) << "rho = " << rho << " violates (0, 1]";
+  const int64_t n = logits.size(0);
+  const int64_t pixels = logits.size(2) * logits.size(3);
+  const int64_t k = std::max<int64_t>(
+      1, std::min<int64_t>(pixels, std::llround(rho * static_cast<double>(pixels))));
+  const torch::Tensor flat = logits.reshape({n, pixels});
+  const torch::Tensor idx =
+      std::get<1>(flat.topk(k, /*dim=*/1, /*largest=*/true, /*sorted=*/false));
+  torch::Tensor mask = torch::zeros({n, pixels}, logits.options().dtype(torch::kUInt8));
+  mask.scatter_(1, idx, 1);
+  return mask.view(logits.sizes());
+}
+
+// ---------------------------------------------------------------------------------------------
+// DepthNet
+
+DepthNetImpl::DepthNetImpl(const NetworkOptions& options) : options_(options) {
+  options_.Check();
+  const std::vector<int>& enc = options_.depth_encoder_widths;
+  const std::vector<int>& dec = options_.depth_decoder_widths;
+  const int stages = static_cast<int>(enc.size());
+  const int levels = options_.num_levels;
+  encoder_ = register_module("encoder", torch::nn::ModuleList());
+  for (int i = 0; i < stages; ++i) {
+    const int in = i == 0 ? 3 : enc[i - 1];
+    const int k = i == 0 ? 5 : 3;  // a wider first receptive field, as DispNet's 7x7 but cheaper
+    encoder_->push_back(torch::nn::Sequential(Conv(in, enc[i], k, 2), torch::nn::ELU(),
+                                              Conv(enc[i], enc[i], 3), torch::nn::ELU()));
+  }
+  // Decoder scale i (resolution 1 / 2^i), i = 0 .. stages - 1, stored at index i.
+  upconv_ = register_module("upconv", torch::nn::ModuleList());
+  iconv_ = register_module("iconv", torch::nn::ModuleList());
+  for (int i = 0; i < stages; ++i) {
+    const int up_in = i == stages - 1 ? enc[stages - 1] : dec[i + 1];
+    upconv_->push_back(Conv(up_in, dec[i], 3));
+    const int skip = i >= 1 ? enc[i - 1] : 0;
+    const int coarser_disp = i < levels - 1 ? 1 : 0;
+    iconv_->push_back(Conv(dec[i] + skip + coarser_disp, dec[i], 3));
+  }
+  disp_heads_ = register_module("disp_heads", torch::nn::ModuleList());
+  for (int l = 0; l < levels; ++l) disp_heads_->push_back(Conv(dec[l], 1, 3));
+}
+
+DepthNetOutput DepthNetImpl::forward(const torch::Tensor& image) {
+  CheckInput(image, options_, "DepthNet");
+  const int stages = static_cast<int>(options_.depth_encoder_widths.size());
+  const int levels = options_.num_levels;
+  const int64_t height = image.size(2), width = image.size(3);
+
+  std::vector<torch::Tensor> skips;  // skips[i]: encoder stage i at 1 / 2^(i+1)
+  torch::Tensor x = NormalizeImage(image, options_);
+  for (int i = 0; i < stages; ++i) {
+    x = encoder_[i]->as<torch::nn::SequentialImpl>()->forward(x);
+    skips.push_back(x);
+  }
+
+  DepthNetOutput out;
+  out.sigmoid.resize(levels);
+  torch::Tensor y = skips.back();
+  torch::Tensor coarser_disp;
+  for (int i = stages - 1; i >= 0; --i) {
+    const int64_t h = i >= 1 ? skips[i - 1].size(2) : height;
+    const int64_t w = i >= 1 ? skips[i - 1].size(3) : width;
+    y = F::elu(upconv_[i]->as<torch::nn::Conv2dImpl>()->forward(UpsampleTo(y, h, w)));
+    std::vector<torch::Tensor> cat;
+    cat.reserve(3);
+    cat.push_back(y);
+    if (i >= 1) cat.push_back(skips[i - 1]);
+    if (i < levels - 1) cat.push_back(UpsampleTo(coarser_disp, h, w));
+    y = F::elu(iconv_[i]->as<torch::nn::Conv2dImpl>()->forward(torch::cat(cat, 1)));
+    if (i < levels) {
+      coarser_disp = torch::sigmoid(disp_heads_[i]->as<torch::nn::Conv2dImpl>()->forward(y));
+      out.sigmoid[i] = coarser_disp;
+    }
+  }
+  out.depth.reserve(levels);
+  for (const torch::Tensor& s : out.sigmoid) out.depth.push_back(DepthFromSigmoid(s));
+  return out;
+}
+
+// ---------------------------------------------------------------------------------------------
+// FeatureNet
+
+ResidualAttentionBlockImpl::ResidualAttentionBlockImpl(int channels) {
+  trunk1_ = register_module("trunk1", Conv(channels, channels, 3));
+  trunk2_ = register_module("trunk2", Conv(channels, channels, 3));
+  attention_ = register_module("attention", Conv(channels, 1, 3));
+}
+
+torch::Tensor ResidualAttentionBlockImpl::forward(const torch::Tensor& x) {
+  const torch::Tensor trunk = trunk2_->forward(torch::relu(trunk1_->forward(x)));
+  const torch::Tensor attention = torch::sigmoid(attention_->forward(x));
+  return torch::relu(x + (1.0 + attention) * trunk);
+}
+
+FeatureNetImpl::FeatureNetImpl(const NetworkOptions& options) : options_(options) {
+  options_.Check();
+  const std::vector<int>& enc = options_.feature_encoder_widths;
+  const std::vector<int>& dec = options_.feature_decoder_widths;
+  const int levels = options_.num_levels;
+  encoder_ = register_module("encoder", torch::nn::ModuleList());
+  for (int i = 0; i < levels; ++i) {
+    const int in = i == 0 ? 3 : enc[i - 1];
+    encoder_->push_back(torch::nn::Sequential(Conv(in, enc[i], 3, 2), torch::nn::ReLU(),
+                                              ResidualAttentionBlock(enc[i])));
+  }
+  decoder_conv_ = register_module("decoder_conv", torch::nn::ModuleList());
+  decoder_rab_ = register_module("decoder_rab", torch::nn::ModuleList());
+  feature_heads_ = register_module("feature_heads", torch::nn::ModuleList());
+  mask_heads_ = register_module("mask_heads", torch::nn::ModuleList());
+  recon_heads_ = register_module("recon_heads", torch::nn::ModuleList());
+  for (int l = 0; l < levels; ++l) {
+    const int up_in = l == levels - 1 ? enc[levels - 1] : dec[l + 1];
+    const int skip = l >= 1 ? enc[l - 1] : 0;
+    decoder_conv_->push_back(Conv(up_in + skip + 3, dec[l], 3));
+    // The full-resolution level has no attention block: it is the most expensive stage (the
+    // DESIGN notes: the full-resolution decoder is ~45% of a plain U-Net's FLOPs).
+    if (l >= 1) decoder_rab_->push_back(ResidualAttentionBlock(dec[l]));
+    feature_heads_->push_back(Conv(dec[l], options_.channels[l], 1));
+    mask_heads_->push_back(Conv(dec[l], 1, 3));
+    recon_heads_->push_back(
+        torch::nn::Sequential(Conv(options_.channels[l], options_.reconstruction_width, 3),
+                              torch::nn::ReLU(), Conv(options_.reconstruction_width, 3, 3)));
+  }
+}
+
+FeatureNetOutput FeatureNetImpl::forward(const torch::Tensor& image) {
+  CheckInput(image, options_, "FeatureNet");
+  const int levels = options_.num_levels;
+  const torch::Tensor normalized = NormalizeImage(image, options_);
+  const std::vector<torch::Tensor> image_levels = ImagePyramid(normalized, levels);
+
+  std::vector<torch::Tensor> skips;  // skips[i]: encoder stage i at 1 / 2^(i+1)
+  torch::Tensor x = normalized;
+  for (int i = 0; i < levels; ++i) {
+    x = encoder_[i]->as<torch::nn::SequentialImpl>()->forward(x);
+    skips.push_back(x);
+  }
+
+  FeatureNetOutput out;
+  out.features.resize(levels);
+  out.mask_logits.resize(levels);
+  torch::Tensor y = skips.back();
+  for (int l = levels - 1; l >= 0; --l) {
+    const torch::Tensor& img = image_levels[l];
+    std::vector<torch::Tensor> cat;
+    cat.reserve(3);
+    cat.push_back(UpsampleTo(y, img.size(2), img.size(3)));
+    if (l >= 1) cat.push_back(skips[l - 1]);
+    cat.push_back(img);
+    y = torch::relu(decoder_conv_[l]->as<torch::nn::Conv2dImpl>()->forward(torch::cat(cat, 1)));
+    if (l >= 1) y = decoder_rab_[l - 1]->as<ResidualAttentionBlockImpl>()->forward(y);
+    out.features[l] =
+        GaussianSmooth3x3(torch::relu(feature_heads_[l]->as<torch::nn::Conv2dImpl>()->forward(y)));
+    out.mask_logits[l] = mask_heads_[l]->as<torch::nn::Conv2dImpl>()->forward(y);
+  }
+  return out;
+}
+
+std::vector<torch::Tensor> FeatureNetImpl::Reconstruct(const std::vector<torch::Tensor>& features) {
+  DFO_CHECK(static_cast<int>(features.size()) == options_.num_levels)
+      << "Reconstruct: " << features.size() << " feature levels, expected " << options_.num_levels;
+  std::vector<torch::Tensor> out;
+  out.reserve(features.size());
+  for (size_t l = 0; l < features.size(); ++l) {
+    out.push_back(
+        torch::sigmoid(recon_heads_[l]->as<torch::nn::SequentialImpl>()->forward(features[l])));
+  }
+  return out;
+}
+
+// ---------------------------------------------------------------------------------------------
+// Both
+
+NetworksImpl::NetworksImpl(const NetworkOptions& options, uint64_t seed) : options_(options) {
+  options_.Check();
+  depth = register_module("depth", DepthNet(options_));
+  feature = register_module("feature", FeatureNet(options_));
+  InitializeWeights(*this, seed);
+}
+
+void InitializeWeights(torch::nn::Module& module, uint64_t seed) {
+  at::Generator gen = at::make_generator<at::CPUGeneratorImpl>(seed);
+  torch::NoGradGuard no_grad;
+  // modules() lists in registration order (depth first), so the draw order is fixed.
+  for (const std::shared_ptr<torch::nn::Module>& m : module.modules(/*include_self=*/true)) {
+    auto* conv = m->as<torch::nn::Conv2dImpl>();
+    if (conv == nullptr) continue;
+    const int64_t fan_in = conv->weight.size(1) * conv->weight.size(2) * conv->weight.size(3);
+    const double bound = std::sqrt(6.0 / static_cast<double>(fan_in));
+    // Draw in float on CPU with the private generator, then copy (works for any device).
+    torch::Tensor w = torch::empty(conv->weight.sizes(), torch::kFloat32);
+    w.uniform_(-bound, bound, gen);
+    conv->weight.copy_(w);
+    if (conv->bias.defined()) conv->bias.zero_();
+  }
+}
+
+int64_t NumParameters(const torch::nn::Module& module) {
+  int64_t n = 0;
+  for (const torch::Tensor& p : module.parameters()) n += p.numel();
+  return n;
+}
+
+}  // namespace dfo::learned
