@@ -7,26 +7,6 @@
 
 namespace dfo {
 
-double DepthPyramid::MeanDepth(int l) const {
-  DFO_CHECK(l >= 0 && l < num_levels()) << l;
-  double sum = 0.0;
-  size_t n = 0;
-  for (float d : levels[l].vector()) {
-    if (d > 0.0f) {
-      sum += d;
-      ++n;
-    }
-  }
-  return n > 0 ? sum / static_cast<double>(n) : 0.0;
-}
-
-int DepthPyramid::NumValid(int l) const {
-  DFO_CHECK(l >= 0 && l < num_levels()) << l;
-  int n = 0;
-  for (float d : levels[l].vector()) n += d > 0.0f ? 1 : 0;
-  return n;
-}
-
 ImageF DownsampleDepthHalf(const ImageF& depth_m) {
   DFO_CHECK(depth_m.channels() == 1 && depth_m.width() >= 2 && depth_m.height() >= 2)
       << depth_m.width() << "x" << depth_m.height() << "x" << depth_m.channels();

@@ -10,20 +10,11 @@
 #include <string>
 #include <vector>
 
+#include "dfo_core/feature_map.h"  // DepthPyramid
 #include "dfo_core/frame.h"
 #include "dfo_core/image.h"
 
 namespace dfo {
-
-// Depth maps of one frame, finest first; level l has size (width >> l) x (height >> l).
-struct DepthPyramid {
-  std::vector<ImageF> levels;  // metres, 0 = invalid (never NaN/inf: sources replace them by 0)
-  int num_levels() const { return static_cast<int>(levels.size()); }
-  // Mean of the valid (> 0) depths of level l; 0 when the level has none.
-  double MeanDepth(int l) const;
-  // Number of valid depths of level l.
-  int NumValid(int l) const;
-};
 
 // Halves a depth map by validity-aware 2x2 averaging: the output is the mean of the valid
 // (finite, > 0) input depths of the 2x2 block, 0 when none is valid (an invalid 0 is never

@@ -10,31 +10,6 @@
 
 namespace dfo {
 
-FeatureLevel::FeatureLevel(int width_, int height_, int channels_, const PinholeCamera& camera_)
-    : width(width_), height(height_), channels(channels_), camera(camera_) {
-  DFO_CHECK(width >= 0 && height >= 0 && channels >= 1)
-      << width << "x" << height << "x" << channels;
-  data.assign(static_cast<size_t>(width) * height * channels, 0.0f);
-}
-
-void FeatureLevel::ZScore() {
-  const size_t n = static_cast<size_t>(width) * height;
-  if (n == 0) return;
-  for (int c = 0; c < channels; ++c) {
-    float* v = Channel(c);
-    // Two passes in double: the mean first, then the variance about it (no cancellation).
-    double sum = 0.0;
-    for (size_t i = 0; i < n; ++i) sum += v[i];
-    const double mean = sum / static_cast<double>(n);
-    double sq = 0.0;
-    for (size_t i = 0; i < n; ++i) sq += (v[i] - mean) * (v[i] - mean);
-    const double stddev = std::sqrt(sq / static_cast<double>(n));
-    const float m = static_cast<float>(mean);
-    const float inv = stddev > 1e-12 ? static_cast<float>(1.0 / stddev) : 0.0f;
-    for (size_t i = 0; i < n; ++i) v[i] = (v[i] - m) * inv;
-  }
-}
-
 void HandmadeFeatureOptions::Check() const {
   internal::CheckOption(
       descriptor == "intensity" || descriptor == "intensity_gradients" || descriptor == "rich",

@@ -4,7 +4,8 @@
 // each further level halves width and height as PinholeCamera::PyramidLevel), a C-channel float
 // feature map stored planar (channel-major, C x H x W) with the level's camera and an optional
 // selection mask. The tracker only sees this interface, so the hand-made features here and the
-// learned networks (later, behind a pimpl) are interchangeable.
+// learned networks (later, behind a pimpl) are interchangeable. The pyramid types themselves live
+// in dfo_core/feature_map.h (the backend uses them too).
 #ifndef DFO_FRONTEND_FEATURE_SOURCE_H_
 #define DFO_FRONTEND_FEATURE_SOURCE_H_
 
@@ -14,49 +15,11 @@
 #include <vector>
 
 #include "dfo_core/camera.h"
+#include "dfo_core/feature_map.h"  // FeatureLevel, FeaturePyramid
 #include "dfo_core/frame.h"
 #include "dfo_core/image.h"
 
 namespace dfo {
-
-// One level of a feature pyramid.
-struct FeatureLevel {
-  int width = 0;     // pixels
-  int height = 0;    // pixels
-  int channels = 0;  // C >= 1
-  // Planar features: value of channel c at pixel (x, y) is data[(c * height + y) * width + x].
-  std::vector<float> data;
-  // Intrinsics of this level (camera.width == width, camera.height == height).
-  PinholeCamera camera;
-  // Optional selection mask, width * height values row-major; non-zero = the pixel may be
-  // selected as a patch centre. Empty = no mask (the tracker selects high-gradient pixels).
-  std::vector<uint8_t> mask;
-
-  // Allocates width x height x channels zeros (mask left empty).
-  FeatureLevel(int width, int height, int channels, const PinholeCamera& camera);
-  FeatureLevel() = default;
-
-  // Start of channel c (row-major width x height floats).
-  float* Channel(int c) { return data.data() + static_cast<size_t>(c) * width * height; }
-  const float* Channel(int c) const {
-    return data.data() + static_cast<size_t>(c) * width * height;
-  }
-  // Value of channel c at integer pixel (x, y).
-  float At(int c, int x, int y) const {
-    return data[(static_cast<size_t>(c) * height + y) * width + x];
-  }
-  bool has_mask() const { return !mask.empty(); }
-
-  // Normalises every channel to zero mean and unit standard deviation over the level (the DFO
-  // paper's per-channel, per-level z-scoring); a constant channel becomes all zeros.
-  void ZScore();
-};
-
-// The levels of one frame's features, finest first.
-struct FeaturePyramid {
-  std::vector<FeatureLevel> levels;
-  int num_levels() const { return static_cast<int>(levels.size()); }
-};
 
 // Computes feature pyramids from frames. Implementations must be deterministic.
 class FeatureSource {

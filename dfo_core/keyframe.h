@@ -1,0 +1,26 @@
+// What the backend needs of a keyframe: the frontend's pose estimate when the frame became a
+// keyframe and the feature and depth pyramids it was tracked with. The frontend produces it
+// (Frontend::MakeLastFrameReference), the backend consumes it (WindowOptimizer::AddKeyframe);
+// neither includes the other.
+#ifndef DFO_CORE_KEYFRAME_H_
+#define DFO_CORE_KEYFRAME_H_
+
+#include <cstdint>
+
+#include "dfo_core/feature_map.h"
+#include "dfo_core/lie.h"
+
+namespace dfo {
+
+// A keyframe as handed from the frontend to the backend.
+struct KeyframeData {
+  int frame_index = 0;       // Frame::index of the keyframe
+  int64_t timestamp_ns = 0;  // Frame::timestamp_ns
+  SE3d world_from_cam;       // frontend estimate when it became a keyframe (camera-to-world)
+  FeaturePyramid features;   // z-scored feature maps as tracked (planar C x H x W per level)
+  DepthPyramid depth;        // depth per level (m, 0 = invalid) from the frontend's depth source
+};
+
+}  // namespace dfo
+
+#endif  // DFO_CORE_KEYFRAME_H_
