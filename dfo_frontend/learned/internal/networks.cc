@@ -7,40 +7,12 @@
 #include <string>
 
 #include "dfo_core/error.h"
-#include "dfo_frontend/internal/check_util.h"
 
 namespace dfo::learned {
 
 namespace F = torch::nn::functional;
-using internal::CheckOption;
 
 namespace {
-
-template <typename T>
-std::string ListString(const std::vector<T>& v) {
-  std::ostringstream s;
-  s << "[";
-  for (size_t i = 0; i < v.size(); ++i) s << (i ? ", " : "") << v[i];
-  s << "]";
-  return s.str();
-}
-
-template <typename T>
-void CheckListSize(const std::vector<T>& v, size_t expected, const std::string& field,
-                   const std::string& expected_what) {
-  if (v.size() == expected) return;
-  std::ostringstream msg;
-  msg << "network." << field << " = " << ListString(v) << " has " << v.size()
-      << " entries; expected " << expected_what << " = " << expected;
-  throw ConfigError(msg.str());
-}
-
-void CheckWidths(const std::vector<int>& v, const std::string& field, int lo, int hi) {
-  for (size_t i = 0; i < v.size(); ++i) {
-    CheckOption(v[i] >= lo && v[i] <= hi, "network." + field + "[" + std::to_string(i) + "]", v[i],
-                "in [" + std::to_string(lo) + ", " + std::to_string(hi) + "]");
-  }
-}
 
 torch::nn::Conv2d Conv(int in, int out, int kernel, int stride = 1) {
   return torch::nn::Conv2d(
@@ -65,71 +37,6 @@ void CheckInput(const torch::Tensor& image, const NetworkOptions& options, const
 }
 
 }  // namespace
-
-// ---------------------------------------------------------------------------------------------
-// Options
-
-void NetworkOptions::Check() const {
-  CheckOption(num_levels >= 1 && num_levels <= 6, "network.num_levels", num_levels, "in [1, 6]");
-  const int div = 1 << (num_levels - 1);
-  CheckOption(input_width >= 8 && input_width % div == 0, "network.input_width", input_width,
-              ">= 8 and divisible by 2^(num_levels - 1) = " + std::to_string(div));
-  CheckOption(input_height >= 8 && input_height % div == 0, "network.input_height", input_height,
-              ">= 8 and divisible by 2^(num_levels - 1) = " + std::to_string(div));
-  const size_t levels = static_cast<size_t>(num_levels);
-  CheckListSize(channels, levels, "channels", "num_levels");
-  CheckWidths(channels, "channels", 1, 256);
-  CheckListSize(patch_sizes, levels, "patch_sizes", "num_levels");
-  for (size_t i = 0; i < patch_sizes.size(); ++i) {
-    CheckOption(patch_sizes[i] >= 1 && patch_sizes[i] <= 9 && patch_sizes[i] % 2 == 1,
-                "network.patch_sizes[" + std::to_string(i) + "]", patch_sizes[i],
-                "odd and in [1, 9]");
-  }
-  CheckListSize(rho, levels, "rho", "num_levels");
-  for (size_t i = 0; i < rho.size(); ++i) {
-    CheckOption(std::isfinite(rho[i]) && rho[i] > 0.0 && rho[i] <= 1.0,
-                "network.rho[" + std::to_string(i) + "]", rho[i], "in (0, 1]");
-  }
-  CheckListSize(input_mean, 3, "input_mean", "RGB channels");
-  CheckListSize(input_std, 3, "input_std", "RGB channels");
-  for (int c = 0; c < 3; ++c) {
-    CheckOption(std::isfinite(input_mean[c]), "network.input_mean[" + std::to_string(c) + "]",
-                input_mean[c], "finite");
-    CheckOption(std::isfinite(input_std[c]) && input_std[c] > 0.0,
-                "network.input_std[" + std::to_string(c) + "]", input_std[c], "> 0");
-  }
-  if (depth_encoder_widths.size() < levels) {
-    std::ostringstream msg;
-    msg << "network.depth_encoder_widths = " << ListString(depth_encoder_widths) << " has "
-        << depth_encoder_widths.size() << " entries; expected at least num_levels = " << num_levels;
-    throw ConfigError(msg.str());
-  }
-  CheckWidths(depth_encoder_widths, "depth_encoder_widths", 1, 1024);
-  CheckListSize(depth_decoder_widths, depth_encoder_widths.size(), "depth_decoder_widths",
-                "the size of depth_encoder_widths");
-  CheckWidths(depth_decoder_widths, "depth_decoder_widths", 1, 1024);
-  CheckListSize(feature_encoder_widths, levels, "feature_encoder_widths", "num_levels");
-  CheckWidths(feature_encoder_widths, "feature_encoder_widths", 1, 1024);
-  CheckListSize(feature_decoder_widths, levels, "feature_decoder_widths", "num_levels");
-  CheckWidths(feature_decoder_widths, "feature_decoder_widths", 1, 1024);
-  CheckOption(reconstruction_width >= 1 && reconstruction_width <= 1024,
-              "network.reconstruction_width", reconstruction_width, "in [1, 1024]");
-}
-
-int64_t NetworkOptions::LevelPixels(int width, int height, int level) {
-  return static_cast<int64_t>(width >> level) * static_cast<int64_t>(height >> level);
-}
-
-bool operator==(const NetworkOptions& a, const NetworkOptions& b) {
-  return a.input_width == b.input_width && a.input_height == b.input_height &&
-         a.num_levels == b.num_levels && a.channels == b.channels &&
-         a.patch_sizes == b.patch_sizes && a.rho == b.rho && a.input_mean == b.input_mean &&
-         a.input_std == b.input_std && a.depth_encoder_widths == b.depth_encoder_widths &&
-         a.depth_decoder_widths == b.depth_decoder_widths &&
-         a.feature_encoder_widths == b.feature_encoder_widths &&
-         a.feature_decoder_widths == b.feature_decoder_widths &&
-         a.reconstruction_width == b.reconstruction_width;
-}
 
 // ---------------------------------------------------------------------------------------------
 // Small functions
@@ -372,17 +279,28 @@ NetworksImpl::NetworksImpl(const NetworkOptions& options, uint64_t seed) : optio
 void InitializeWeights(torch::nn::Module& module, uint64_t seed) {
   at::Generator gen = at::make_generator<at::CPUGeneratorImpl>(seed);
   torch::NoGradGuard no_grad;
-  // modules() lists in registration order (depth first), so the draw order is fixed.
-  for (const std::shared_ptr<torch::nn::Module>& m : module.modules(/*include_self=*/true)) {
-    auto* conv = m->as<torch::nn::Conv2dImpl>();
-    if (conv == nullptr) continue;
+  auto init = [&gen](torch::nn::Conv2dImpl* conv) {
     const int64_t fan_in = conv->weight.size(1) * conv->weight.size(2) * conv->weight.size(3);
     const double bound = std::sqrt(6.0 / static_cast<double>(fan_in));
-    // Draw in float on CPU with the private generator, then copy (works for any device).
+    // Drawn in float on the CPU with the private generator, then copied (any device/layout).
     torch::Tensor w = torch::empty(conv->weight.sizes(), torch::kFloat32);
     w.uniform_(-bound, bound, gen);
     conv->weight.copy_(w);
     if (conv->bias.defined()) conv->bias.zero_();
+  };
+  // modules() lists in registration order (depth first), so the draw order is fixed. The module
+  // itself is tested separately: modules(true) needs it to be held by a shared_ptr, which is not
+  // the case inside a constructor.
+  if (auto* conv = dynamic_cast<torch::nn::Conv2dImpl*>(&module)) init(conv);
+  for (const std::shared_ptr<torch::nn::Module>& m : module.modules(/*include_self=*/false)) {
+    if (auto* conv = m->as<torch::nn::Conv2dImpl>()) init(conv);
+  }
+}
+
+void ToChannelsLast(torch::nn::Module& module) {
+  torch::NoGradGuard no_grad;
+  for (torch::Tensor& p : module.parameters()) {
+    if (p.dim() == 4) p.set_data(p.contiguous(torch::MemoryFormat::ChannelsLast));
   }
 }
 
