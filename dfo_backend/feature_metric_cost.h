@@ -1,0 +1,86 @@
+// The feature-metric residual of the sliding window (DESIGN.md, backend; PixSfM's feature-metric
+// BA, DSO's photometric residual with learned features in place of intensities).
+//
+// A point is hosted in keyframe h at the integer pixel u of the BA pyramid level, with one
+// parameter, its inverse depth rho (1/m). For every K x K patch offset o_k (spacing 1 px) the
+// pixel u_k = u + o_k is back-projected with the SAME inverse depth, moved into the target
+// keyframe t and projected (each patch pixel is warped exactly, DSO's pattern):
+//   X_h   = ray(u_k) / rho,                   ray(u) = ((u - c) / f, 1)
+//   p_k   = pi(T_t^-1 T_h X_h),               T = world_from_cam of the keyframe
+//   r_ck  = F_h(c, u_k) - F_t(c, p_k)         c = 0..C-1, F_t bilinearly interpolated
+// giving C x K x K residuals, index c * K * K + k, k = (dy + K/2) * K + (dx + K/2).
+//
+// Jacobians (hand-written; the autodiff twin in tests/backend checks them). Projection is
+// invariant to scaling its argument, so use Y = rho T_t^-1 T_h X_h = R_t^T (Z_w - rho t_t) with
+// Z_w = R_h ray + rho t_h (finite for rho -> 0, points at infinity). With left perturbations
+// T <- Exp(d) T of world_from_cam (dfo_backend/pose_manifold.h):
+//   dY / d d_host   = R_t^T [rho I, -hat(Z_w)],
+//   dY / d d_target = -dY / d d_host            (a common left factor cancels: gauge freedom),
+//   dY / d rho      = R_t^T (t_h - t_t),
+//   d r_ck / d .    = -grad F_t(c, p_k)^T  dpi/dY(Y)  dY / d .
+// with grad F_t the gradient of the bilinear interpolant itself (so the derivative is exact
+// wherever the interpolant is differentiable, i.e. off the integer grid lines).
+//
+// A patch pixel whose projection falls outside the target image (or behind the camera) gives
+// zero residuals and zero Jacobian rows for all its channels; the window only creates a block
+// when the patch centre is visible, so this happens only when a solve moves it out.
+#ifndef DFO_BACKEND_FEATURE_METRIC_COST_H_
+#define DFO_BACKEND_FEATURE_METRIC_COST_H_
+
+#include <ceres/cost_function.h>
+
+#include <Eigen/Core>
+#include <memory>
+#include <vector>
+
+#include "dfo_core/camera.h"
+#include "dfo_core/feature_map.h"
+
+namespace dfo {
+
+using RowMajorMatrixXd = Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor>;
+
+// The C x K x K host patch of `level` centred on the integer pixel (x, y), in the residual order
+// above (channel-major). The patch must lie inside the level (checked, InternalError).
+std::vector<double> SampleHostPatch(const FeatureLevel& level, int x, int y, int patch_size);
+
+// Residual block of one point (hosted in h) into one target keyframe t. Parameter blocks:
+// host pose (7, dfo_backend/pose_manifold.h), target pose (7), inverse depth (1). Residuals:
+// C * K * K. Does not own the target level: it must outlive the cost (the window keeps it).
+class FeatureMetricCost : public ceres::CostFunction {
+ public:
+  // target: the target keyframe's BA level (its camera is used to project);
+  // host_camera: intrinsics of the host's BA level (to back-project); host_uv: integer pixel
+  // of the patch centre in the host; patch_size: K (odd, >= 1); host_patch: SampleHostPatch of
+  // the host at host_uv (shared by all blocks of the point), size target.channels * K * K.
+  FeatureMetricCost(const FeatureLevel* target, const PinholeCamera& host_camera,
+                    const Eigen::Vector2d& host_uv, int patch_size,
+                    std::shared_ptr<const std::vector<double>> host_patch);
+
+  // ceres::CostFunction: ambient Jacobians (J_tangent * PoseMinusJacobian for the poses).
+  bool Evaluate(double const* const* parameters, double* residuals,
+                double** jacobians) const override;
+
+  // Residuals and tangent-space Jacobians (row-major N x 6, N x 6, N x 1; any may be null).
+  // Returns false when a value is not finite (e.g. NaN features or poses).
+  bool EvaluateTangent(const double* host_pose, const double* target_pose, double inverse_depth,
+                       double* residuals, double* jacobian_host, double* jacobian_target,
+                       double* jacobian_inverse_depth) const;
+
+  // Number of patch pixels whose projection lies inside the target at these parameters.
+  int NumVisible(const double* host_pose, const double* target_pose, double inverse_depth) const;
+
+  int patch_size() const { return patch_size_; }
+  int channels() const { return target_->channels; }
+
+ private:
+  const FeatureLevel* target_;
+  PinholeCamera host_camera_;
+  Eigen::Vector2d host_uv_;
+  int patch_size_;
+  std::shared_ptr<const std::vector<double>> host_patch_;
+};
+
+}  // namespace dfo
+
+#endif  // DFO_BACKEND_FEATURE_METRIC_COST_H_
