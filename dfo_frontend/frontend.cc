@@ -1,8 +1,10 @@
 #include "dfo_frontend/frontend.h"
 
+#include <algorithm>
 #include <chrono>
 #include <cmath>
 #include <sstream>
+#include <utility>
 
 #include "dfo_core/error.h"
 
@@ -20,6 +22,11 @@ struct Frontend::State {
   SE3d world_from_last;
   bool has_motion = false;
   SE3d last_from_prev;  // last inter-frame motion (identity when unknown)
+  // The last processed frame, for MakeLastFrameReference.
+  bool has_last_frame = false;
+  TrackedFrame last_frame;
+  FeaturePyramid last_features;
+  DepthPyramid last_depth;
 };
 
 namespace {
@@ -87,19 +94,28 @@ TrackedFrame Frontend::Process(const Frame& frame) {
   const int num_levels = options_.tracker.num_levels;
 
   auto start = std::chrono::steady_clock::now();
-  const FeaturePyramid features = features_->Compute(frame, num_levels);
+  FeaturePyramid features = features_->Compute(frame, num_levels);
   timings_.features_ms = MsSince(start);
   start = std::chrono::steady_clock::now();
-  const DepthPyramid depth = depth_->Compute(frame, num_levels);
+  DepthPyramid depth = depth_->Compute(frame, num_levels);
   timings_.depth_ms = MsSince(start);
 
   start = std::chrono::steady_clock::now();
+  // Every return goes through `finish`: the frame's pyramids are kept for MakeLastFrameReference.
+  auto finish = [&](const TrackedFrame& result) {
+    timings_.tracking_ms = MsSince(start);
+    s.has_last_frame = true;
+    s.last_frame = result;
+    s.last_features = std::move(features);
+    s.last_depth = std::move(depth);
+    return result;
+  };
   TrackedFrame out;
   out.index = frame.index;
   out.timestamp_ns = frame.timestamp_ns;
 
   // A reference needs enough points: at least min_inliers_lost patches at the finest level.
-  const int min_points = std::max(options_.tracker.min_inliers_lost, 12);
+  const int min_points = MinReferencePoints();
   auto make_reference = [&](const SE3d& world_from_cam) {
     const int points = tracker_.SetReference(features, depth);
     if (points < min_points) {
@@ -131,8 +147,7 @@ TrackedFrame Frontend::Process(const Frame& frame) {
     }
     s.has_motion = false;
     s.last_from_prev = SE3d();
-    timings_.tracking_ms = MsSince(start);
-    return out;
+    return finish(out);
   }
 
   // Hypotheses (DSO): constant velocity, zero, half, double motion from the last good frame.
@@ -154,8 +169,7 @@ TrackedFrame Frontend::Process(const Frame& frame) {
     s.has_reference = false;  // the next frame starts a fresh reference
     s.has_motion = false;
     s.last_from_prev = SE3d();
-    timings_.tracking_ms = MsSince(start);
-    return out;
+    return finish(out);
   }
   out.status = result.status;
   out.world_from_cam = world_from_cam;
@@ -165,8 +179,10 @@ TrackedFrame Frontend::Process(const Frame& frame) {
   s.world_from_last = world_from_cam;
   ++s.frames_since_reference;
 
-  // Reference switch (ReferenceOptions): distance relative to the mean depth, rotation, inlier
-  // ratio, interval. A frame whose own depth is too sparse cannot become a reference.
+  // Reference switch (ReferenceOptions, policy "internal"): distance relative to the mean depth,
+  // rotation, inlier ratio, interval. A frame whose own depth is too sparse cannot become a
+  // reference. With policy "external" the caller switches (MakeLastFrameReference).
+  if (options_.reference.policy != "internal") return finish(out);
   const ReferenceOptions& ro = options_.reference;
   const double distance_ratio = s.reference_mean_depth > 0.0
                                     ? out.ref_from_cam.translation().norm() / s.reference_mean_depth
@@ -175,15 +191,51 @@ TrackedFrame Frontend::Process(const Frame& frame) {
   const bool switch_reference =
       distance_ratio > ro.translation_ratio || rotation_deg > ro.rotation_deg ||
       result.inlier_ratio < ro.min_inlier_ratio || s.frames_since_reference >= ro.max_interval;
-  const int patch_pixels = options_.tracker.patch_size * options_.tracker.patch_size;
-  if (switch_reference && depth.NumValid(0) >= min_points * patch_pixels) {
+  if (switch_reference && depth.NumValid(0) >= MinReferenceDepths()) {
     if (make_reference(world_from_cam)) {
       out.is_new_reference = true;
     }
     // else: the tracker has no usable reference now; the next frame restarts from itself.
   }
-  timings_.tracking_ms = MsSince(start);
-  return out;
+  return finish(out);
+}
+
+int Frontend::MinReferencePoints() const {
+  return std::max(options_.tracker.min_inliers_lost, 12);
+}
+
+int Frontend::MinReferenceDepths() const {
+  return MinReferencePoints() * options_.tracker.patch_size * options_.tracker.patch_size;
+}
+
+bool Frontend::MakeLastFrameReference(KeyframeData* keyframe) {
+  State& s = *state_;
+  if (!s.has_last_frame || s.last_frame.status == TrackingStatus::kLost) return false;
+  const TrackedFrame& last = s.last_frame;
+  const bool already = s.has_reference && s.reference_index == last.index;
+  if (!already) {
+    if (s.last_depth.num_levels() == 0 || s.last_depth.NumValid(0) < MinReferenceDepths()) {
+      return false;  // keep tracking against the current reference
+    }
+    const int points = tracker_.SetReference(s.last_features, s.last_depth);
+    if (points < MinReferencePoints()) {
+      s.has_reference = false;  // as the internal rule: the next frame restarts from itself
+      return false;
+    }
+    s.has_reference = true;
+    s.reference_index = last.index;
+    s.world_from_ref = last.world_from_cam;
+    s.reference_mean_depth = tracker_.reference_mean_depth(0);
+    s.frames_since_reference = 0;
+  }
+  if (keyframe != nullptr) {
+    keyframe->frame_index = last.index;
+    keyframe->timestamp_ns = last.timestamp_ns;
+    keyframe->world_from_cam = last.world_from_cam;
+    keyframe->features = s.last_features;
+    keyframe->depth = s.last_depth;
+  }
+  return true;
 }
 
 }  // namespace dfo

@@ -7,6 +7,10 @@
 //   for (const Frame& frame : frames) {
 //     TrackedFrame tracked = frontend.Process(frame);   // pose + status of every frame
 //   }
+//
+// With options.reference.policy = "external" the caller decides the reference switch (the
+// backend's keyframe manager in dfo_run): after Process, MakeLastFrameReference makes the frame
+// just processed the reference and hands out its KeyframeData; the tracker then tracks against it.
 #ifndef DFO_FRONTEND_FRONTEND_H_
 #define DFO_FRONTEND_FRONTEND_H_
 
@@ -14,6 +18,7 @@
 #include <string>
 
 #include "dfo_core/frame.h"
+#include "dfo_core/keyframe.h"
 #include "dfo_frontend/depth_source.h"
 #include "dfo_frontend/feature_source.h"
 #include "dfo_frontend/reference_options.h"
@@ -65,6 +70,18 @@ class Frontend {
   // source is "gt", a camera that differs from the reference's.
   TrackedFrame Process(const Frame& frame);
 
+  // Makes the frame of the last Process call the reference that the following frames are tracked
+  // against (in either policy; with "external" this is the only switch besides the automatic
+  // first/restart reference) and fills `keyframe` (may be null) with its index, time, pose
+  // (TrackedFrame::world_from_cam) and the feature and depth pyramids it was processed with.
+  // When the last frame already is the reference (status kReference, is_new_reference, or a
+  // repeated call), nothing is switched and its data are returned. Returns false, switching
+  // nothing, when there was no frame, the last frame was lost, or its depth is too sparse for a
+  // reference (fewer valid depths than the tracker's minimum points x patch pixels); returns
+  // false as well when the switch was tried but selected too few points: then the tracker has no
+  // reference and the next frame restarts (status kReference).
+  bool MakeLastFrameReference(KeyframeData* keyframe);
+
   // Timings of the last Process call.
   const FrontendTimings& last_timings() const;
   // Forgets the reference, the motion model and the pose (the next frame starts at identity).
@@ -74,6 +91,10 @@ class Frontend {
 
  private:
   struct State;
+  // Fewest finest-level points of a usable reference, and fewest valid finest-level depths a
+  // frame needs before a switch to it is tried.
+  int MinReferencePoints() const;
+  int MinReferenceDepths() const;
   FrontendOptions options_;
   std::unique_ptr<FeatureSource> features_;
   std::unique_ptr<DepthSource> depth_;

@@ -65,6 +65,8 @@ double TrackerOptions::ConvergenceThreshold(int level) const {
 }
 
 void ReferenceOptions::Check() const {
+  CheckOption(policy == "internal" || policy == "external", "reference.policy", policy,
+              "one of {internal, external}");
   CheckOption(std::isfinite(translation_ratio) && translation_ratio > 0.0,
               "reference.translation_ratio", translation_ratio, "> 0");
   CheckOption(std::isfinite(rotation_deg) && rotation_deg > 0.0, "reference.rotation_deg",
