@@ -1,0 +1,133 @@
+#include "dfo_backend/trajectory_store.h"
+
+#include "dfo_core/error.h"
+
+namespace dfo {
+
+const TrajectoryStore::Entry& TrajectoryStore::Get(int frame_index) const {
+  const auto it = position_.find(frame_index);
+  DFO_CHECK(it != position_.end()) << "frame " << frame_index << " is not in the store";
+  return frames_[it->second];
+}
+
+TrajectoryStore::Entry& TrajectoryStore::GetMutable(int frame_index) {
+  const auto it = position_.find(frame_index);
+  DFO_CHECK(it != position_.end()) << "frame " << frame_index << " is not in the store";
+  return frames_[it->second];
+}
+
+void TrajectoryStore::Append(const Entry& entry) {
+  DFO_CHECK(frames_.empty() || entry.frame_index > frames_.back().frame_index)
+      << "frame " << entry.frame_index << " added after frame " << frames_.back().frame_index;
+  position_[entry.frame_index] = frames_.size();
+  frames_.push_back(entry);
+}
+
+void TrajectoryStore::AddFrame(int frame_index, int64_t timestamp_ns, int keyframe_index,
+                               const SE3d& kf_from_frame) {
+  if (keyframe_index >= 0) {
+    DFO_CHECK(IsKeyframe(keyframe_index))
+        << "frame " << frame_index << " tracked against frame " << keyframe_index
+        << ", which is not a keyframe";
+  }
+  Entry e;
+  e.frame_index = frame_index;
+  e.timestamp_ns = timestamp_ns;
+  e.keyframe_index = keyframe_index;
+  e.kf_from_frame = kf_from_frame;
+  Append(e);
+}
+
+void TrajectoryStore::AddKeyframe(int frame_index, int64_t timestamp_ns,
+                                  const SE3d& frontend_world_from_cam) {
+  Entry e;
+  e.frame_index = frame_index;
+  e.timestamp_ns = timestamp_ns;
+  e.is_keyframe = true;
+  e.frontend_world_from_kf = frontend_world_from_cam;
+  if (last_keyframe_ >= 0) {
+    // Carry the frontend's relation to the previous keyframe over to the windowed trajectory.
+    const Entry& prev = Get(last_keyframe_);
+    e.windowed_world_from_kf = prev.windowed_world_from_kf *
+                               (prev.frontend_world_from_kf.Inverse() * frontend_world_from_cam);
+  } else {
+    e.windowed_world_from_kf = frontend_world_from_cam;
+  }
+  Append(e);
+  ++num_keyframes_;
+  last_keyframe_ = frame_index;
+}
+
+void TrajectoryStore::PromoteToKeyframe(int frame_index) {
+  DFO_CHECK(!frames_.empty() && frames_.back().frame_index == frame_index)
+      << "frame " << frame_index << " is not the frame added last";
+  Entry& e = frames_.back();
+  if (e.is_keyframe) return;
+  DFO_CHECK(e.keyframe_index >= 0) << "frame " << frame_index << " has no keyframe";
+  const Entry& kf = Get(e.keyframe_index);
+  e.frontend_world_from_kf = kf.frontend_world_from_kf * e.kf_from_frame;
+  e.windowed_world_from_kf = kf.windowed_world_from_kf * e.kf_from_frame;
+  e.is_keyframe = true;
+  ++num_keyframes_;
+  last_keyframe_ = frame_index;
+}
+
+void TrajectoryStore::SetWindowedPose(int frame_index, const SE3d& world_from_kf) {
+  Entry& e = GetMutable(frame_index);
+  DFO_CHECK(e.is_keyframe) << "frame " << frame_index << " is not a keyframe";
+  e.windowed_world_from_kf = world_from_kf;
+}
+
+bool TrajectoryStore::Contains(int frame_index) const {
+  return position_.count(frame_index) > 0;
+}
+
+bool TrajectoryStore::IsKeyframe(int frame_index) const {
+  const auto it = position_.find(frame_index);
+  return it != position_.end() && frames_[it->second].is_keyframe;
+}
+
+SE3d TrajectoryStore::Pose(const Entry& e, bool windowed) const {
+  if (e.is_keyframe) return windowed ? e.windowed_world_from_kf : e.frontend_world_from_kf;
+  if (e.keyframe_index < 0) return e.kf_from_frame;
+  const Entry& kf = Get(e.keyframe_index);
+  return (windowed ? kf.windowed_world_from_kf : kf.frontend_world_from_kf) * e.kf_from_frame;
+}
+
+SE3d TrajectoryStore::FrontendPose(int frame_index) const {
+  return Pose(Get(frame_index), false);
+}
+
+SE3d TrajectoryStore::WindowedPose(int frame_index) const {
+  return Pose(Get(frame_index), true);
+}
+
+Trajectory TrajectoryStore::FrontendTrajectory() const {
+  Trajectory t;
+  for (const Entry& e : frames_) t.Add(e.timestamp_ns, Pose(e, false));
+  return t;
+}
+
+Trajectory TrajectoryStore::WindowedTrajectory() const {
+  Trajectory t;
+  for (const Entry& e : frames_) t.Add(e.timestamp_ns, Pose(e, true));
+  return t;
+}
+
+Trajectory TrajectoryStore::KeyframeTrajectory(bool windowed) const {
+  Trajectory t;
+  for (const Entry& e : frames_) {
+    if (e.is_keyframe) t.Add(e.timestamp_ns, Pose(e, windowed));
+  }
+  return t;
+}
+
+std::vector<int> TrajectoryStore::KeyframeIndices() const {
+  std::vector<int> out;
+  for (const Entry& e : frames_) {
+    if (e.is_keyframe) out.push_back(e.frame_index);
+  }
+  return out;
+}
+
+}  // namespace dfo
