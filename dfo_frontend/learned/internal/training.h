@@ -1,0 +1,213 @@
+// Self-supervised training of the DFO networks (dfo_train's engine): data (3-frame snippets from
+// sequences held in memory, static frames skipped, the paper's augmentation), the stagewise loss
+// (autoencoder first, then joint), the pose from the differentiable Gauss-Newton alignment, Adam
+// with a geometric learning-rate schedule, checkpoints with resume, and the loss history.
+//
+// Internal header (includes <torch/torch.h>). dfo_frontend must not use dfo_io, so the caller
+// (apps/dfo_train.cc) reads the sequences from disk and hands them over as TrainingSequence.
+//
+// One iteration of the joint stage, for a batch of snippets (I_{t-1}, I_t, I_{t+1}):
+//   depth pyramid D_l = DepthNet(I_t); features and mask logits of all three frames (FeatureNet,
+//   Siamese); soft masks of the target by Gumbel-sigmoid; per sample and source s, the pose
+//   s_from_t = DifferentiableAlign(target features z-scored + D, source features z-scored) from
+//   the identity; per level l: the sources warped into the target with D_l and that pose, the
+//   per-pixel minimum over the two sources of the clamped DSSIM + L1 appearance error (Monodepth2's
+//   minimum reprojection: a pixel occluded in one source is usually visible in the other), plus
+//   lambda_sm / 2^l edge-aware smoothness of the disparity 1 / D_l; lambda_sp KL sparsity of every
+//   level's mask toward rho_l; lambda_ae autoencoder reconstruction.
+// The autoencoder stage trains the feature network alone on reconstruction + sparsity.
+#ifndef DFO_FRONTEND_LEARNED_INTERNAL_TRAINING_H_
+#define DFO_FRONTEND_LEARNED_INTERNAL_TRAINING_H_
+
+#include <torch/torch.h>
+
+#include <atomic>
+#include <cstdint>
+#include <functional>
+#include <memory>
+#include <random>
+#include <string>
+#include <vector>
+
+#include "dfo_core/camera.h"
+#include "dfo_core/image.h"
+#include "dfo_frontend/learned/internal/diff_gn.h"
+#include "dfo_frontend/learned/internal/losses.h"
+#include "dfo_frontend/learned/internal/networks.h"
+#include "dfo_frontend/tracker.h"
+
+namespace dfo::learned {
+
+// One training sequence in memory: RGB frames (3 channels, all of the camera's size) in time
+// order.
+struct TrainingSequence {
+  std::string name;              // for messages ("seq 101")
+  std::vector<ImageU8> images;   // RGB, camera.width x camera.height each
+  PinholeCamera camera;          // intrinsics of `images`
+};
+
+// A 3-frame snippet: frames index - 1, index, index + 1 of sequence `sequence`.
+struct Snippet {
+  int sequence = 0;
+  int index = 0;  // the target (middle) frame
+};
+
+// Augmentation (SfMLearner / the DFO paper), applied identically to the three frames.
+struct AugmentOptions {
+  bool enabled = true;
+  // Random upscale by s uniform in [1, max_scale] then a random crop back to the training size
+  // (intrinsics follow). 1 = off. In [1, 2].
+  double max_scale = 1.15;
+  // Probability of the photometric augmentation, in [0, 1]; when drawn, gamma, brightness and a
+  // per-channel colour factor are each uniform in [color_min, color_max] (the issue: [0.9, 1.1]).
+  double color_probability = 0.5;
+  double color_min = 0.9;  // > 0
+  double color_max = 1.1;  // >= color_min
+
+  // Throws ConfigError naming the field, value and rule.
+  void Check() const;
+};
+
+// Everything a training run needs besides the data.
+struct TrainingOptions {
+  NetworkOptions network;  // shapes; input_width x input_height is the training size
+  LossOptions loss;
+  AugmentOptions augment;
+  // The differentiable alignment: the tracker's options (its num_levels must equal
+  // network.num_levels, its patch_size network.patch_sizes[0]); training uses short unrolls.
+  TrackerOptions gn;
+  // Weight the GN's patches by the target's soft masks and select points only where the mask is
+  // above 0.5 (the inference frontend selects on the hard mask). false: gradient selection only.
+  bool gn_use_masks = true;
+  // Backpropagate through the source views' feature network (false: sources are computed without
+  // gradients, which saves about a third of the step; the target branch still learns).
+  bool source_feature_grad = false;
+
+  int batch_size = 4;  // snippets per iteration, >= 1
+  // Snippets whose target differs from either neighbour by less than this mean absolute grey
+  // difference (0..1) are static and skipped. >= 0; 0 keeps all.
+  double static_threshold = 0.01;
+  // Iterations of the autoencoder stage (feature network alone), >= 0, then joint training up to
+  // `iterations` in total (> ae_iterations unless only the AE stage is wanted).
+  int ae_iterations = 500;
+  int iterations = 20000;
+  // Adam's learning rate decays geometrically from learning_rate to final_learning_rate over the
+  // run (the paper: 1e-5 -> 1e-6; on this CPU's short runs 1e-4 -> 1e-5 learns much faster).
+  double learning_rate = 1e-4;
+  double final_learning_rate = 1e-5;
+  double adam_beta1 = 0.9;
+  double adam_beta2 = 0.999;
+  // Gradient norm clip (all parameters together), > 0; unrolled GN can produce rare spikes.
+  double max_grad_norm = 10.0;
+  // Gumbel-sigmoid temperature, geometric from start to end over the joint stage (paper 1 -> 0.1).
+  double temperature_start = 1.0;
+  double temperature_end = 0.1;
+  uint64_t seed = 1;        // data order, augmentation, Gumbel noise and initial weights
+  int threads = 1;          // torch intra-op threads, >= 1
+  bool channels_last = true;  // NHWC memory format (oneDNN's fast path on this CPU)
+  int checkpoint_every = 500;  // iterations between checkpoints, >= 1
+
+  // Throws ConfigError naming the field ("train.batch_size = 0 violates >= 1").
+  void Check() const;
+};
+
+// The losses of one iteration (0 for terms the stage does not use).
+struct StepRecord {
+  int iteration = 0;  // 1-based: the number of updates done after this step
+  std::string stage;  // "ae" or "joint"
+  double total = 0.0;
+  double appearance = 0.0;
+  double smoothness = 0.0;
+  double sparsity = 0.0;
+  double reconstruction = 0.0;
+  double learning_rate = 0.0;
+  double temperature = 0.0;
+  double gn_ok_ratio = 0.0;  // fraction of alignments whose finest level succeeded
+  double mean_depth = 0.0;   // mean predicted depth of the batch's targets (m)
+  double seconds = 0.0;      // wall time of the step
+};
+
+// The run: networks, optimiser, data, history. Not thread-safe; deterministic for a given seed,
+// data and thread count (the iteration's random draws depend only on seed and iteration, so a
+// resumed run draws what an uninterrupted one would).
+class Trainer {
+ public:
+  // Checks the options (ConfigError) and the data: at least one sequence with a non-static
+  // snippet, every image RGB of its camera's size (InputError naming the sequence and frame).
+  // Images are resized to the training size when the camera differs. Builds the networks from
+  // options.seed.
+  Trainer(const TrainingOptions& options, std::vector<TrainingSequence> data);
+  ~Trainer();
+
+  // One iteration (AE or joint stage by iteration()); returns its record, also appended to
+  // history(). Throws InternalError when the loss is not finite (after skipping one bad batch).
+  StepRecord Step();
+
+  // Runs Step() until `iterations` or until *stop becomes true; after each step calls on_step;
+  // saves a checkpoint every checkpoint_every iterations and at the end (also when stopped) to
+  // checkpoint_path (when not empty). Returns the number of steps done.
+  int Run(const std::atomic<bool>* stop, const std::string& checkpoint_path,
+          const std::function<void(const StepRecord&)>& on_step);
+
+  // Checkpoint: network weights, Adam state, iteration, network options and the history. Written
+  // to `path` + ".tmp" then renamed (a crash never leaves half a checkpoint). InputError when it
+  // cannot be written.
+  void SaveCheckpoint(const std::string& path) const;
+  // Restores a checkpoint written by SaveCheckpoint; InputError naming the file when it is not
+  // one or its network shapes differ from the options'.
+  void LoadCheckpoint(const std::string& path);
+  // Loads only the network weights of a checkpoint (fine-tuning at another size; fresh Adam,
+  // iteration 0).
+  void LoadWeights(const std::string& path);
+
+  int iteration() const { return iteration_; }
+  const std::vector<StepRecord>& history() const { return history_; }
+  const std::vector<Snippet>& snippets() const { return snippets_; }
+  Networks& networks() { return networks_; }
+  const TrainingOptions& options() const { return options_; }
+
+  // Learning rate and Gumbel temperature at an iteration (0-based) by the schedules.
+  double LearningRateAt(int iteration) const;
+  double TemperatureAt(int iteration) const;
+
+  // The batch of an iteration after augmentation: images N x 3 x H x W for the previous, target
+  // and next frames, and intrinsics N x 4 (fx, fy, cx, cy) at the training size. Deterministic.
+  struct Batch {
+    torch::Tensor previous, target, next;
+    torch::Tensor intrinsics;
+    std::vector<PinholeCamera> cameras;  // per sample, training size
+  };
+  Batch MakeBatch(int iteration) const;
+
+  // Evaluation helper: per-level depth (N x 1 x H_l x W_l) of RGB images N x 3 x H x W in [0, 1]
+  // at the training size, without gradients.
+  std::vector<torch::Tensor> PredictDepth(const torch::Tensor& images);
+
+ private:
+  StepRecord AeStep(const Batch& batch);
+  StepRecord JointStep(const Batch& batch, int iteration);
+
+  TrainingOptions options_;
+  std::vector<TrainingSequence> data_;
+  std::vector<Snippet> snippets_;
+  Networks networks_{nullptr};
+  std::unique_ptr<torch::optim::Adam> optimizer_;
+  int iteration_ = 0;
+  std::vector<StepRecord> history_;
+};
+
+// Converts an RGB (or grey, replicated) 8-bit image into a 1 x 3 x H x W float tensor in [0, 1].
+torch::Tensor ImageToTensor(const ImageU8& image);
+
+// Per-channel z-score of a C x H x W (or N x C x H x W, per sample) feature map over its pixels,
+// as FeatureLevel::ZScore (population standard deviation; a constant channel becomes 0).
+torch::Tensor ZScore(const torch::Tensor& features);
+
+// The history as CSV (header + one row per record) and back. ReadHistoryCsv throws InputError
+// naming the file and line for a malformed row.
+void WriteHistoryCsv(const std::string& path, const std::vector<StepRecord>& history);
+std::vector<StepRecord> ReadHistoryCsv(const std::string& path);
+
+}  // namespace dfo::learned
+
+#endif  // DFO_FRONTEND_LEARNED_INTERNAL_TRAINING_H_
