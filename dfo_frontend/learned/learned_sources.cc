@@ -1,0 +1,356 @@
+#include "dfo_frontend/learned/learned_sources.h"
+
+#include <chrono>
+#include <cmath>
+#include <cstring>
+#include <sstream>
+#include <utility>
+
+#include "dfo_core/error.h"
+#include "dfo_frontend/internal/check_util.h"
+#include "dfo_frontend/learned/internal/model_file.h"
+#include "dfo_frontend/learned/internal/networks.h"
+
+namespace dfo {
+
+namespace {
+
+template <typename T>
+std::string ListString(const std::vector<T>& v) {
+  std::ostringstream s;
+  s << "[";
+  for (size_t i = 0; i < v.size(); ++i) s << (i ? ", " : "") << v[i];
+  s << "]";
+  return s.str();
+}
+
+// FNV-1a over the image bytes: part of the cache key, so a reused frame index with another image
+// (e.g. two sequences through one model) never returns stale outputs.
+uint64_t HashBytes(const uint8_t* data, size_t n) {
+  uint64_t h = 1469598103934665603ull;
+  for (size_t i = 0; i < n; ++i) {
+    h ^= data[i];
+    h *= 1099511628211ull;
+  }
+  return h;
+}
+
+struct CacheKey {
+  int index = -1;
+  int64_t timestamp_ns = 0;
+  int width = 0, height = 0, channels = 0;
+  uint64_t hash = 0;
+  bool operator==(const CacheKey& o) const {
+    return index == o.index && timestamp_ns == o.timestamp_ns && width == o.width &&
+           height == o.height && channels == o.channels && hash == o.hash;
+  }
+};
+
+}  // namespace
+
+void LearnedModelOptions::Check() const {
+  using internal::CheckOption;
+  CheckOption(!model_path.empty(), "learned.model_path", "\"\"", "non-empty");
+  CheckOption(num_threads >= 1 && num_threads <= 256, "learned.num_threads", num_threads,
+              "in [1, 256]");
+  CheckOption(num_levels >= 0 && num_levels <= 6, "learned.num_levels", num_levels,
+              "in [0, 6] (0 = the model's)");
+  for (size_t i = 0; i < channels.size(); ++i) {
+    CheckOption(channels[i] >= 1, "learned.channels[" + std::to_string(i) + "]", channels[i],
+                ">= 1");
+  }
+  for (size_t i = 0; i < rho.size(); ++i) {
+    CheckOption(std::isfinite(rho[i]) && rho[i] > 0.0 && rho[i] <= 1.0,
+                "learned.rho[" + std::to_string(i) + "]", rho[i], "in (0, 1]");
+  }
+}
+
+struct LearnedModel::Impl {
+  LearnedModelOptions options;
+  LearnedModelInfo info;
+  learned::LoadedModel model;
+  bool has_cache = false;
+  CacheKey key;
+  FeaturePyramid features;
+  DepthPyramid depth;
+  LearnedFrameStats stats;
+  int64_t runs = 0;
+
+  void Load();
+  void Run(const Frame& frame);
+  std::string What(const Frame& frame) const {
+    return "model " + options.model_path + ", frame " + std::to_string(frame.index);
+  }
+};
+
+void LearnedModel::Impl::Load() {
+  options.Check();
+  // LibTorch's intra-op pool is process-wide; the default here is 1 thread (DESIGN.md).
+  at::set_num_threads(options.num_threads);
+  model = learned::LoadModel(options.model_path);
+  const std::string prefix = "model file " + options.model_path + ": ";
+  learned::NetworkOptions& o = model.options;
+  if (options.num_levels != 0 && options.num_levels != o.num_levels) {
+    throw InputError(prefix + "num_levels = " + std::to_string(o.num_levels) +
+                     ", but the configuration asks for " + std::to_string(options.num_levels) +
+                     " (learned.num_levels)");
+  }
+  if (!options.channels.empty() && options.channels != o.channels) {
+    throw InputError(prefix + "channels = " + ListString(o.channels) +
+                     ", but the configuration asks for " + ListString(options.channels) +
+                     " (learned.channels)");
+  }
+  if (!options.rho.empty()) {
+    if (options.rho.size() != o.rho.size()) {
+      throw ConfigError("learned.rho = " + ListString(options.rho) + " has " +
+                        std::to_string(options.rho.size()) + " entries; the model " +
+                        options.model_path + " has num_levels = " + std::to_string(o.num_levels));
+    }
+    o.rho = options.rho;
+  }
+  info.path = options.model_path;
+  info.input_width = o.input_width;
+  info.input_height = o.input_height;
+  info.num_levels = o.num_levels;
+  info.channels = o.channels;
+  info.patch_sizes = o.patch_sizes;
+  info.rho = o.rho;
+  if (model.kind == learned::LoadedModel::Kind::kDfo) {
+    info.kind = "dfo";
+    info.notes = model.notes;
+    info.depth_parameters = learned::NumParameters(*model.networks->depth);
+    info.feature_parameters = learned::NumParameters(*model.networks->feature);
+    // oneDNN's fast path on this CPU is NHWC (DESIGN.md "Training on this CPU").
+    learned::ToChannelsLast(*model.networks);
+    model.networks->eval();
+  } else {
+    info.kind = "torchscript";
+    model.script.eval();
+    // Freezing folds parameters into constants and lets optimize_for_inference fuse conv/ReLU
+    // and pre-pack weights for oneDNN (torch.jit.optimize_for_inference). Both are optional:
+    // a module they cannot handle runs as loaded.
+    try {
+      torch::jit::Module frozen = torch::jit::freeze(model.script);
+      model.script = torch::jit::optimize_for_inference(frozen);
+    } catch (const std::exception&) {
+    }
+  }
+}
+
+void LearnedModel::Impl::Run(const Frame& frame) {
+  const ImageU8& image = frame.image;
+  if (image.empty()) throw InputError(What(frame) + ": empty image");
+  if (image.channels() != 1 && image.channels() != 3) {
+    throw InputError(What(frame) + ": image has " + std::to_string(image.channels()) +
+                     " channels; expected 1 (grey) or 3 (RGB)");
+  }
+  if (image.width() != frame.camera.width || image.height() != frame.camera.height) {
+    throw InputError(What(frame) + ": image is " + std::to_string(image.width()) + " x " +
+                     std::to_string(image.height()) + " but the camera is " +
+                     std::to_string(frame.camera.width) + " x " +
+                     std::to_string(frame.camera.height));
+  }
+  const learned::NetworkOptions& o = model.options;
+  const int width = image.width(), height = image.height();
+  if (options.require_input_size && (width != o.input_width || height != o.input_height)) {
+    throw InputError(What(frame) + ": image is " + std::to_string(width) + " x " +
+                     std::to_string(height) + "; the model takes " + std::to_string(o.input_width) +
+                     " x " + std::to_string(o.input_height) +
+                     " (resize the input, or set learned.require_input_size = false)");
+  }
+  const int div = 1 << (o.num_levels - 1);
+  if (width % div != 0 || height % div != 0) {
+    throw InputError(What(frame) + ": image is " + std::to_string(width) + " x " +
+                     std::to_string(height) + "; the model's " + std::to_string(o.num_levels) +
+                     " levels need sides divisible by " + std::to_string(div));
+  }
+  CacheKey k;
+  k.index = frame.index;
+  k.timestamp_ns = frame.timestamp_ns;
+  k.width = width;
+  k.height = height;
+  k.channels = image.channels();
+  k.hash = HashBytes(image.data(), image.size());
+  if (has_cache && k == key) return;
+  has_cache = false;
+
+  const auto start = std::chrono::steady_clock::now();
+  c10::InferenceMode inference_mode;
+  // H x W x C bytes -> 1 x 3 x H x W float in [0, 1]; the permuted view is NHWC in memory, the
+  // layout the channels_last networks want.
+  torch::Tensor input = torch::from_blob(const_cast<uint8_t*>(image.data()),
+                                         {height, width, image.channels()}, torch::kUInt8)
+                            .permute({2, 0, 1})
+                            .unsqueeze(0)
+                            .to(torch::kFloat32)
+                            .div_(255.0f);
+  if (image.channels() == 1) input = input.expand({1, 3, height, width});
+  input = input.contiguous(torch::MemoryFormat::ChannelsLast);
+
+  std::vector<torch::Tensor> depth_levels, feature_levels, logit_levels;
+  if (model.kind == learned::LoadedModel::Kind::kDfo) {
+    learned::DepthNetOutput d = model.networks->depth->forward(input);
+    learned::FeatureNetOutput f = model.networks->feature->forward(input);
+    depth_levels = std::move(d.depth);
+    feature_levels = std::move(f.features);
+    logit_levels = std::move(f.mask_logits);
+  } else {
+    c10::IValue output;
+    try {
+      output = model.script.forward({input.contiguous()});
+    } catch (const std::exception& e) {
+      std::string msg = e.what();
+      if (const auto* c10_error = dynamic_cast<const c10::Error*>(&e)) {
+        msg = c10_error->what_without_backtrace();
+      }
+      throw InputError(What(frame) +
+                       ": TorchScript forward failed: " + msg.substr(0, msg.find('\n')));
+    }
+    learned::ScriptOutputs s = learned::CheckScriptOutputs(output, o, width, height, What(frame));
+    depth_levels = std::move(s.depth);
+    feature_levels = std::move(s.features);
+    logit_levels = std::move(s.mask_logits);
+  }
+
+  stats = LearnedFrameStats();
+  stats.frame_index = frame.index;
+  features.levels.clear();
+  depth.levels.clear();
+  for (int l = 0; l < o.num_levels; ++l) {
+    const int w = width >> l, h = height >> l;
+    // Depth: non-finite or <= 0 -> 0 (invalid), as the DepthSource contract asks.
+    torch::Tensor d = depth_levels[l].to(torch::kFloat32).contiguous().view({h, w});
+    const torch::Tensor d_bad = ~torch::isfinite(d);
+    stats.nonfinite_depth += d_bad.sum().item<int64_t>();
+    d = torch::where(d_bad | (d <= 0), torch::zeros_like(d), d).contiguous();
+    ImageF depth_map(w, h, 1);
+    std::memcpy(depth_map.data(), d.data_ptr<float>(), sizeof(float) * w * h);
+    depth.levels.push_back(std::move(depth_map));
+
+    // Features: non-finite values -> 0; their pixels (and non-finite logits) are never selected.
+    const int c = static_cast<int>(feature_levels[l].size(1));
+    torch::Tensor f = feature_levels[l].to(torch::kFloat32).contiguous().view({c, h, w});
+    const torch::Tensor f_bad = ~torch::isfinite(f);
+    stats.nonfinite_features += f_bad.sum().item<int64_t>();
+    f = torch::where(f_bad, torch::zeros_like(f), f).contiguous();
+    torch::Tensor logits = logit_levels[l].to(torch::kFloat32).contiguous().view({1, 1, h, w});
+    const torch::Tensor l_bad = ~torch::isfinite(logits);
+    stats.nonfinite_logits += l_bad.sum().item<int64_t>();
+    const torch::Tensor pixel_bad = l_bad | f_bad.any(0).view({1, 1, h, w});
+    logits = torch::where(pixel_bad, torch::full_like(logits, -1e30f), logits);
+    torch::Tensor mask = learned::HardTopMask(logits, o.rho[l]);
+    mask = torch::where(pixel_bad, torch::zeros_like(mask), mask).contiguous();
+
+    FeatureLevel level(w, h, c, frame.camera.PyramidLevel(l));
+    std::memcpy(level.data.data(), f.data_ptr<float>(), sizeof(float) * c * w * h);
+    level.mask.resize(static_cast<size_t>(w) * h);
+    std::memcpy(level.mask.data(), mask.data_ptr<uint8_t>(), level.mask.size());
+    level.ZScore();
+    features.levels.push_back(std::move(level));
+  }
+  stats.network_ms =
+      std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start).count();
+  ++runs;
+  key = k;
+  has_cache = true;
+}
+
+LearnedModel::LearnedModel(const LearnedModelOptions& options) : impl_(std::make_unique<Impl>()) {
+  impl_->options = options;
+  impl_->Load();
+}
+
+LearnedModel::~LearnedModel() = default;
+
+const LearnedModelInfo& LearnedModel::info() const { return impl_->info; }
+const LearnedModelOptions& LearnedModel::options() const { return impl_->options; }
+
+const FeaturePyramid& LearnedModel::Features(const Frame& frame) {
+  impl_->Run(frame);
+  return impl_->features;
+}
+
+const DepthPyramid& LearnedModel::Depth(const Frame& frame) {
+  impl_->Run(frame);
+  return impl_->depth;
+}
+
+const LearnedFrameStats& LearnedModel::last_stats() const { return impl_->stats; }
+int64_t LearnedModel::num_runs() const { return impl_->runs; }
+
+std::shared_ptr<LearnedModel> LoadLearnedModel(const LearnedModelOptions& options) {
+  return std::make_shared<LearnedModel>(options);
+}
+
+namespace {
+
+class LearnedFeatureSource : public FeatureSource {
+ public:
+  explicit LearnedFeatureSource(std::shared_ptr<LearnedModel> model) : model_(std::move(model)) {
+    DFO_CHECK(model_ != nullptr) << "MakeLearnedFeatureSource needs a model";
+  }
+  std::string name() const override { return "learned"; }
+  FeaturePyramid Compute(const Frame& frame, int num_levels) override {
+    const int model_levels = model_->info().num_levels;
+    if (num_levels < 1 || num_levels > model_levels) {
+      throw ConfigError(
+          "the tracker asks for " + std::to_string(num_levels) + " feature levels; the model " +
+          model_->info().path + " has " + std::to_string(model_levels) +
+          " (frontend.tracker.num_levels must be in [1, " + std::to_string(model_levels) + "])");
+    }
+    const FeaturePyramid& all = model_->Features(frame);
+    FeaturePyramid out;
+    out.levels.assign(all.levels.begin(), all.levels.begin() + num_levels);
+    return out;
+  }
+
+ private:
+  std::shared_ptr<LearnedModel> model_;
+};
+
+class LearnedDepthSource : public DepthSource {
+ public:
+  explicit LearnedDepthSource(std::shared_ptr<LearnedModel> model) : model_(std::move(model)) {
+    DFO_CHECK(model_ != nullptr) << "MakeLearnedDepthSource needs a model";
+  }
+  std::string name() const override { return "learned"; }
+  DepthPyramid Compute(const Frame& frame, int num_levels) override {
+    DFO_CHECK(num_levels >= 1) << "num_levels = " << num_levels;
+    const DepthPyramid& all = model_->Depth(frame);
+    DepthPyramid out;
+    const int n = std::min(num_levels, all.num_levels());
+    out.levels.assign(all.levels.begin(), all.levels.begin() + n);
+    while (out.num_levels() < num_levels) {
+      const ImageF& last = out.levels.back();
+      if (last.width() < 2 || last.height() < 2) {
+        throw InputError("frame " + std::to_string(frame.index) + ": depth level " +
+                         std::to_string(out.num_levels() - 1) + " is " +
+                         std::to_string(last.width()) + " x " + std::to_string(last.height()) +
+                         ", too small for another level");
+      }
+      out.levels.push_back(DownsampleDepthHalf(last));
+    }
+    return out;
+  }
+
+ private:
+  std::shared_ptr<LearnedModel> model_;
+};
+
+}  // namespace
+
+std::unique_ptr<FeatureSource> MakeLearnedFeatureSource(std::shared_ptr<LearnedModel> model) {
+  return std::make_unique<LearnedFeatureSource>(std::move(model));
+}
+
+std::unique_ptr<DepthSource> MakeLearnedDepthSource(std::shared_ptr<LearnedModel> model) {
+  return std::make_unique<LearnedDepthSource>(std::move(model));
+}
+
+void WriteUntrainedModel(const std::string& path, const learned::NetworkOptions& options,
+                         uint64_t seed, const std::string& notes) {
+  learned::Networks networks(options, seed);
+  learned::SaveModel(path, *networks, notes);
+}
+
+}  // namespace dfo
