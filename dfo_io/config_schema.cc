@@ -122,8 +122,8 @@ ConfigSchema BuildSchema() {
   s.AddDouble("tracker.max_rmse_lost", 1.0, "Status lost above this RMSE").GreaterThan(0);
 
   s.AddSection("reference",
-               "When a tracked frame becomes the new reference (any rule that fires switches; "
-               "until the backend's keyframe manager).");
+               "The frontend's own reference-switch rule (any rule that fires switches); used only "
+               "when keyframe.decided_by = frontend.");
   s.AddDouble("reference.translation_ratio", 0.15,
               "Switch when |t_ref_cur| / mean depth of the reference exceeds this")
       .GreaterThan(0);
@@ -138,7 +138,42 @@ ConfigSchema BuildSchema() {
            "Switch after this many frames against one reference (1 = frame to frame)")
       .Min(1);
 
+  // Defaults mirror KeyframeOptions (dfo_backend/keyframe_manager.h); a test in tests/apps
+  // compares them (apps/common/backend_config.h).
+  s.AddSection("keyframe",
+               "When a tracked frame becomes a keyframe (the tracker's new reference and the "
+               "window's newest keyframe); any rule that fires makes one.");
+  s.AddString("keyframe.decided_by", "manager",
+              "Who decides: the keyframe manager with the rules below (manager), or the "
+              "frontend's own reference rule, section reference (frontend)")
+      .OneOf({"manager", "frontend"});
+  s.AddDouble("keyframe.translation_ratio", 0.10,
+              "New keyframe when |t_kf->cur| / mean depth of the keyframe exceeds this")
+      .GreaterThan(0);
+  s.AddDouble("keyframe.rotation_deg", 5.0,
+              "New keyframe when the rotation from the keyframe exceeds this many degrees")
+      .GreaterThan(0)
+      .Max(180);
+  s.AddDouble("keyframe.residual_ratio", 2.0,
+              "New keyframe when the tracking RMSE exceeds this times the RMSE of the first frame "
+              "after the keyframe (DSO: 2)")
+      .Min(1);
+  s.AddDouble("keyframe.min_inlier_ratio", 0.5,
+              "New keyframe when the finest-level inlier ratio falls below this; 0 = off")
+      .Min(0)
+      .Max(1);
+  s.AddInt("keyframe.min_interval", 1,
+           "No keyframe fewer than this many frames after the last (except after a loss)")
+      .Min(1);
+  s.AddInt("keyframe.max_interval", 10,
+           "New keyframe at the latest this many frames after the last; >= min_interval")
+      .Min(1);
+
   s.AddSection("run", "Running dfo: where results go and how.");
+  s.AddString("run.mode", "both",
+              "What dfo_run estimates from the one frontend pass: the frontend-only trajectory, "
+              "the sliding-window (bundle-adjusted) one, or both side by side")
+      .OneOf({"frontend", "windowed", "both"});
   s.AddString("run.output_dir", "results",
               "Folder for trajectories, metrics and config_effective.yaml (created)");
   s.AddBool("run.deterministic", true,

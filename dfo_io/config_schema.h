@@ -7,8 +7,12 @@
 //   synth    the procedural synthetic sequence (dfo_core/synthetic/options.h)
 //   frontend feature and depth sources, hand-made feature options (FrontendOptions)
 //   tracker  the direct feature-metric tracker (TrackerOptions, dfo_frontend/tracker.h)
-//   reference the reference-switch rule (ReferenceOptions, dfo_frontend/reference_options.h)
-//   run      output folder, determinism, threads, progress line, plot
+//   reference the frontend's own reference-switch rule (ReferenceOptions,
+//            dfo_frontend/reference_options.h), used when keyframe.decided_by = frontend
+//   keyframe the keyframe manager (KeyframeOptions, dfo_backend/keyframe_manager.h)
+//   window   the sliding-window bundle adjustment (WindowOptions, dfo_backend/window_optimizer.h)
+//   backend  its solver, loss, priors and marginalisation (WindowOptions too)
+//   run      mode (frontend, windowed, both), output folder, determinism, threads, progress, plot
 #ifndef DFO_IO_CONFIG_SCHEMA_H_
 #define DFO_IO_CONFIG_SCHEMA_H_
 

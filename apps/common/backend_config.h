@@ -1,0 +1,39 @@
+// The configuration sections `keyframe`, `window` and `backend` and the key `run.mode` as the
+// backend's option structs. The schema lives in dfo_io/config_schema.cc, which cannot see the
+// backend's structs; tests/apps/backend_config_test.cc keeps the schema's defaults equal to
+// KeyframeOptions{} and WindowOptions{}.
+#ifndef DFO_APPS_COMMON_BACKEND_CONFIG_H_
+#define DFO_APPS_COMMON_BACKEND_CONFIG_H_
+
+#include <string>
+
+#include "dfo_backend/keyframe_manager.h"
+#include "dfo_io/config.h"
+
+namespace dfo::apps {
+
+// What dfo_run estimates from its one frontend pass (run.mode).
+enum class RunMode {
+  kFrontend,  // frontend-only trajectory (frontend_*.txt)
+  kWindowed,  // sliding-window bundle-adjusted trajectory (windowed_*.txt, keyframes_tum.txt)
+  kBoth,      // both, side by side
+};
+
+// "frontend", "windowed", "both".
+const char* RunModeName(RunMode mode);
+// Parses run.mode; throws ConfigError naming the key and the known values otherwise.
+RunMode ParseRunMode(const std::string& value);
+// run.mode of a Config of io::DfoSchema().
+RunMode RunModeFromConfig(const io::Config& config);
+
+// The keyframe.* keys (except decided_by) as KeyframeOptions, checked (KeyframeOptions::Check
+// throws ConfigError on contradictions such as min_interval > max_interval).
+KeyframeOptions KeyframeOptionsFromConfig(const io::Config& config);
+
+// keyframe.decided_by = manager: the frontend runs with reference.policy "external" and the
+// keyframe manager switches it; = frontend: the frontend's own rule ("internal").
+std::string ReferencePolicyFromConfig(const io::Config& config);
+
+}  // namespace dfo::apps
+
+#endif  // DFO_APPS_COMMON_BACKEND_CONFIG_H_
