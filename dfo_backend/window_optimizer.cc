@@ -1,0 +1,687 @@
+#include "dfo_backend/window_optimizer.h"
+
+#include <ceres/ceres.h>
+
+#include <algorithm>
+#include <array>
+#include <chrono>
+#include <cmath>
+#include <map>
+#include <sstream>
+
+#include "dfo_backend/feature_metric_cost.h"
+#include "dfo_backend/marginalization.h"
+#include "dfo_backend/pose_manifold.h"
+#include "dfo_core/error.h"
+
+namespace dfo {
+
+namespace {
+
+template <typename T>
+void Require(bool ok, const std::string& key, const T& value, const std::string& rule) {
+  if (ok) return;
+  std::ostringstream msg;
+  msg << key << " = " << value << " violates " << rule;
+  throw ConfigError(msg.str());
+}
+
+double MsSince(std::chrono::steady_clock::time_point start) {
+  return std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start)
+      .count();
+}
+
+// Prior r = sqrt(w) (rho - rho0) / rho0 on one inverse depth (D3VO-style depth prior, relative so
+// that its weight does not depend on the scene's scale).
+class InverseDepthPriorCost : public ceres::SizedCostFunction<1, 1> {
+ public:
+  InverseDepthPriorCost(double rho0, double weight)
+      : rho0_(rho0), sqrt_w_over_rho0_(std::sqrt(weight) / rho0) {}
+  bool Evaluate(double const* const* parameters, double* residuals,
+                double** jacobians) const override {
+    residuals[0] = sqrt_w_over_rho0_ * (parameters[0][0] - rho0_);
+    if (jacobians && jacobians[0]) jacobians[0][0] = sqrt_w_over_rho0_;
+    return true;
+  }
+
+ private:
+  double rho0_, sqrt_w_over_rho0_;
+};
+
+// Prior on the relative pose of two keyframes toward the frontend's measurement a_from_b:
+// E = meas^-1 (T_a^-1 T_b), r = sqrt(w) [2 vec(q_E); t_E] (as Ceres's pose_graph_3d example).
+struct RelativePosePrior {
+  RelativePosePrior(const SE3d& a_from_b, double weight)
+      : q_meas_inv(a_from_b.quaternion().conjugate()),
+        t_meas(a_from_b.translation()),
+        sqrt_w(std::sqrt(weight)) {}
+  template <typename T>
+  bool operator()(const T* pose_a, const T* pose_b, T* residuals) const {
+    const Eigen::Quaternion<T> qa(pose_a[3], pose_a[0], pose_a[1], pose_a[2]);
+    const Eigen::Quaternion<T> qb(pose_b[3], pose_b[0], pose_b[1], pose_b[2]);
+    const Eigen::Matrix<T, 3, 1> ta(pose_a[4], pose_a[5], pose_a[6]);
+    const Eigen::Matrix<T, 3, 1> tb(pose_b[4], pose_b[5], pose_b[6]);
+    const Eigen::Quaternion<T> qa_inv = qa.conjugate();
+    const Eigen::Quaternion<T> q_ab = qa_inv * qb;
+    const Eigen::Matrix<T, 3, 1> t_ab = qa_inv * (tb - ta);
+    const Eigen::Quaternion<T> q_err = q_meas_inv.template cast<T>() * q_ab;
+    const Eigen::Matrix<T, 3, 1> t_err =
+        q_meas_inv.template cast<T>() * (t_ab - t_meas.template cast<T>());
+    const T s = T(sqrt_w);
+    const T sign = q_err.w() < T(0) ? T(-1) : T(1);
+    residuals[0] = s * T(2) * sign * q_err.x();
+    residuals[1] = s * T(2) * sign * q_err.y();
+    residuals[2] = s * T(2) * sign * q_err.z();
+    residuals[3] = s * t_err.x();
+    residuals[4] = s * t_err.y();
+    residuals[5] = s * t_err.z();
+    return true;
+  }
+  Eigen::Quaterniond q_meas_inv;
+  Eigen::Vector3d t_meas;
+  double sqrt_w;
+};
+
+// q-quantile (0 < q <= 1) of values (copied), nearest rank.
+double Quantile(std::vector<double> values, double q) {
+  if (values.empty()) return 0.0;
+  const size_t k = std::min(values.size() - 1,
+                            static_cast<size_t>(std::ceil(q * values.size())) - (q > 0 ? 1 : 0));
+  std::nth_element(values.begin(), values.begin() + k, values.end());
+  return values[k];
+}
+
+}  // namespace
+
+void WindowOptions::Check() const {
+  Require(max_keyframes >= 5, "window.max_keyframes", max_keyframes, ">= 5");
+  Require(pyramid_level >= 0, "window.pyramid_level", pyramid_level, ">= 0");
+  Require(patch_size >= 1 && patch_size <= 9 && patch_size % 2 == 1, "window.patch_size",
+          patch_size, "odd and in [1, 9]");
+  Require(points_per_keyframe >= 1 && points_per_keyframe <= 100000,
+          "window.points_per_keyframe", points_per_keyframe, "in [1, 100000]");
+  Require(loss == "huber" || loss == "cauchy", "window.loss", loss, "one of {huber, cauchy}");
+  Require(std::isfinite(loss_scale) && loss_scale > 0.0, "window.loss_scale", loss_scale, "> 0");
+  Require(linear_solver == "sparse_schur" || linear_solver == "dense_schur",
+          "window.linear_solver", linear_solver, "one of {sparse_schur, dense_schur}");
+  Require(max_iterations >= 1, "window.max_iterations", max_iterations, ">= 1");
+  Require(std::isfinite(max_solver_time_s) && max_solver_time_s > 0.0,
+          "window.max_solver_time_s", max_solver_time_s, "> 0");
+  Require(num_threads >= 1, "window.num_threads", num_threads, ">= 1");
+  Require(std::isfinite(min_inverse_depth) && min_inverse_depth >= 0.0,
+          "window.min_inverse_depth", min_inverse_depth, ">= 0");
+  Require(std::isfinite(depth_prior_weight) && depth_prior_weight >= 0.0,
+          "window.depth_prior_weight", depth_prior_weight, ">= 0");
+  Require(std::isfinite(pose_prior_weight) && pose_prior_weight >= 0.0,
+          "window.pose_prior_weight", pose_prior_weight, ">= 0");
+  Require(outlier_gate_percentile > 0.0 && outlier_gate_percentile <= 1.0,
+          "window.outlier_gate_percentile", outlier_gate_percentile, "in (0, 1]");
+  Require(std::isfinite(outlier_gate_factor) && outlier_gate_factor >= 1.0,
+          "window.outlier_gate_factor", outlier_gate_factor, ">= 1");
+  Require(min_point_fraction >= 0.0 && min_point_fraction <= 1.0, "window.min_point_fraction",
+          min_point_fraction, "in [0, 1]");
+  Require(min_marginalized_observations >= 1, "window.min_marginalized_observations",
+          min_marginalized_observations, ">= 1");
+  Require(prior_weight > 0.0 && prior_weight <= 1.0, "backend.prior_weight", prior_weight,
+          "in (0, 1]");
+  Require(relative_eigenvalue_floor > 0.0 && relative_eigenvalue_floor < 1.0,
+          "backend.relative_eigenvalue_floor", relative_eigenvalue_floor, "in (0, 1)");
+}
+
+struct WindowOptimizer::KeyframeState {
+  int id = 0;
+  int frame_index = 0;
+  int64_t timestamp_ns = 0;
+  double pose[kPoseAmbientSize];  // world_from_cam, pose_manifold.h layout
+  SE3d frontend_pose;             // as handed in (for the relative pose prior)
+  FeatureLevel level;             // features at the BA level
+  ImageF depth;                   // depth at the BA level (m, 0 invalid)
+  int num_selected = 0;           // points selected when it entered
+};
+
+struct WindowOptimizer::PointState {
+  int host_id = 0;
+  int x = 0, y = 0;  // pixel at the BA level
+  double inverse_depth = 0.0;
+  double prior_inverse_depth = 0.0;  // from the keyframe's depth
+  std::shared_ptr<const std::vector<double>> patch;
+  std::map<int, std::unique_ptr<FeatureMetricCost>> residuals;  // by target keyframe id
+};
+
+WindowOptimizer::WindowOptimizer(const WindowOptions& options) : options_(options) {
+  options_.Check();
+  manifold_ = std::make_unique<SE3Manifold>();
+}
+
+WindowOptimizer::~WindowOptimizer() = default;
+
+int WindowOptimizer::num_keyframes() const { return static_cast<int>(keyframes_.size()); }
+int WindowOptimizer::num_points() const { return static_cast<int>(points_.size()); }
+int WindowOptimizer::num_residual_blocks() const {
+  int n = 0;
+  for (const auto& p : points_) n += static_cast<int>(p->residuals.size());
+  return n;
+}
+
+std::vector<std::pair<int, SE3d>> WindowOptimizer::KeyframePoses() const {
+  std::vector<std::pair<int, SE3d>> out;
+  for (const auto& kf : keyframes_) out.emplace_back(kf->frame_index, PoseFromParameters(kf->pose));
+  return out;
+}
+
+const LinearPriorCost* WindowOptimizer::prior() const { return prior_.get(); }
+
+std::vector<int> WindowOptimizer::PriorFrameIndices() const {
+  std::vector<int> out;
+  for (int id : prior_keyframe_ids_) out.push_back(FindKeyframe(id)->frame_index);
+  return out;
+}
+
+std::vector<std::pair<int, double>> WindowOptimizer::PointInverseDepths() const {
+  std::vector<std::pair<int, double>> out;
+  for (const auto& p : points_) out.emplace_back(FindKeyframe(p->host_id)->frame_index, p->inverse_depth);
+  return out;
+}
+
+WindowOptimizer::KeyframeState* WindowOptimizer::FindKeyframe(int id) const {
+  for (const auto& kf : keyframes_) {
+    if (kf->id == id) return kf.get();
+  }
+  DFO_CHECK(false) << "keyframe id " << id << " not in the window";
+  return nullptr;
+}
+
+// Point selection: the level is divided into square cells (about two per wanted point); in each
+// cell the pixel with the largest squared feature gradient (summed over channels, central
+// differences) among the allowed ones (mask, valid depth, patch inside) is a candidate; the
+// strongest candidates are kept. Spreads points over the image as DSO's block-wise selection.
+void WindowOptimizer::SelectPoints(KeyframeState* kf) {
+  const FeatureLevel& f = kf->level;
+  const int w = f.width, h = f.height;
+  const int border = options_.patch_size / 2 + 1;
+  const double cell = std::max(
+      2.0, std::sqrt(static_cast<double>(w) * h / (2.0 * options_.points_per_keyframe)));
+  const int cells_x = std::max(1, static_cast<int>(std::ceil(w / cell)));
+  const int cells_y = std::max(1, static_cast<int>(std::ceil(h / cell)));
+  struct Candidate {
+    double score;
+    int x, y;
+  };
+  std::vector<Candidate> best(static_cast<size_t>(cells_x) * cells_y, Candidate{-1.0, 0, 0});
+  const size_t plane = static_cast<size_t>(w) * h;
+  for (int y = border; y < h - border; ++y) {
+    for (int x = border; x < w - border; ++x) {
+      const size_t i = static_cast<size_t>(y) * w + x;
+      if (f.has_mask() && f.mask[i] == 0) continue;
+      const float d = kf->depth(x, y);
+      if (!(std::isfinite(d) && d > 0.0f)) continue;
+      double score = 0.0;
+      for (int c = 0; c < f.channels; ++c) {
+        const float* v = f.data.data() + c * plane;
+        const double gx = 0.5 * (v[i + 1] - v[i - 1]);
+        const double gy = 0.5 * (v[i + w] - v[i - w]);
+        score += gx * gx + gy * gy;
+      }
+      if (!std::isfinite(score)) continue;
+      const int cx = std::min(cells_x - 1, static_cast<int>(x / cell));
+      const int cy = std::min(cells_y - 1, static_cast<int>(y / cell));
+      Candidate& b = best[static_cast<size_t>(cy) * cells_x + cx];
+      if (score > b.score) b = Candidate{score, x, y};
+    }
+  }
+  std::vector<Candidate> chosen;
+  for (const Candidate& c : best) {
+    if (c.score > 0.0) chosen.push_back(c);
+  }
+  std::sort(chosen.begin(), chosen.end(), [](const Candidate& a, const Candidate& b) {
+    return a.score != b.score ? a.score > b.score : (a.y != b.y ? a.y < b.y : a.x < b.x);
+  });
+  if (static_cast<int>(chosen.size()) > options_.points_per_keyframe) {
+    chosen.resize(options_.points_per_keyframe);
+  }
+  for (const Candidate& c : chosen) {
+    auto p = std::make_unique<PointState>();
+    p->host_id = kf->id;
+    p->x = c.x;
+    p->y = c.y;
+    p->inverse_depth = std::max(1.0 / kf->depth(c.x, c.y), options_.min_inverse_depth);
+    p->prior_inverse_depth = p->inverse_depth;
+    p->patch = std::make_shared<const std::vector<double>>(
+        SampleHostPatch(f, c.x, c.y, options_.patch_size));
+    points_.push_back(std::move(p));
+  }
+  kf->num_selected = static_cast<int>(chosen.size());
+}
+
+// Blocks for every (point, target) pair that involves the new keyframe and is visible.
+void WindowOptimizer::ConnectNewKeyframe(KeyframeState* new_kf) {
+  const int full = options_.patch_size * options_.patch_size;
+  for (auto& p : points_) {
+    KeyframeState* host = FindKeyframe(p->host_id);
+    const Eigen::Vector2d uv(p->x, p->y);
+    auto try_add = [&](KeyframeState* target) {
+      auto cost = std::make_unique<FeatureMetricCost>(&target->level, host->level.camera, uv,
+                                                      options_.patch_size, p->patch);
+      if (cost->NumVisible(host->pose, target->pose, p->inverse_depth) == full) {
+        p->residuals[target->id] = std::move(cost);
+      }
+    };
+    if (p->host_id == new_kf->id) {
+      for (auto& target : keyframes_) {
+        if (target->id != new_kf->id) try_add(target.get());
+      }
+    } else {
+      try_add(new_kf);
+    }
+  }
+  RemovePointsWithoutResiduals();
+}
+
+void WindowOptimizer::RemovePointsWithoutResiduals() {
+  // The newest keyframe's points may wait for later keyframes only if the window has just one
+  // keyframe; otherwise a point without blocks carries no information.
+  if (keyframes_.size() < 2) return;
+  points_.erase(std::remove_if(points_.begin(), points_.end(),
+                               [](const std::unique_ptr<PointState>& p) {
+                                 return p->residuals.empty();
+                               }),
+                points_.end());
+}
+
+bool WindowOptimizer::Solve(double* initial_cost, double* final_cost, std::string* why) {
+  // Snapshot to restore on failure.
+  std::vector<std::array<double, kPoseAmbientSize>> pose_backup;
+  for (const auto& kf : keyframes_) {
+    std::array<double, kPoseAmbientSize> a;
+    std::copy(kf->pose, kf->pose + kPoseAmbientSize, a.begin());
+    pose_backup.push_back(a);
+  }
+  std::vector<double> depth_backup;
+  for (const auto& p : points_) depth_backup.push_back(p->inverse_depth);
+  auto restore = [&]() {
+    for (size_t i = 0; i < keyframes_.size(); ++i) {
+      std::copy(pose_backup[i].begin(), pose_backup[i].end(), keyframes_[i]->pose);
+    }
+    for (size_t i = 0; i < points_.size(); ++i) points_[i]->inverse_depth = depth_backup[i];
+  };
+
+  std::vector<std::unique_ptr<ceres::CostFunction>> owned_costs;
+  std::unique_ptr<ceres::LossFunction> prior_loss;
+  ceres::Problem::Options problem_options;
+  problem_options.cost_function_ownership = ceres::DO_NOT_TAKE_OWNERSHIP;
+  problem_options.loss_function_ownership = ceres::DO_NOT_TAKE_OWNERSHIP;
+  problem_options.manifold_ownership = ceres::DO_NOT_TAKE_OWNERSHIP;
+  ceres::Problem problem(problem_options);
+  auto ordering = std::make_shared<ceres::ParameterBlockOrdering>();
+  for (const auto& kf : keyframes_) {
+    problem.AddParameterBlock(kf->pose, kPoseAmbientSize, manifold_.get());
+    ordering->AddElementToGroup(kf->pose, 1);
+  }
+  problem.SetParameterBlockConstant(keyframes_.front()->pose);  // gauge
+  int num_blocks = 0;
+  for (auto& p : points_) {
+    if (p->residuals.empty()) continue;
+    KeyframeState* host = FindKeyframe(p->host_id);
+    for (auto& [target_id, cost] : p->residuals) {
+      problem.AddResidualBlock(cost.get(), loss_.get(), host->pose, FindKeyframe(target_id)->pose,
+                               &p->inverse_depth);
+      ++num_blocks;
+    }
+    if (options_.min_inverse_depth > 0.0) {
+      problem.SetParameterLowerBound(&p->inverse_depth, 0, options_.min_inverse_depth);
+    }
+    ordering->AddElementToGroup(&p->inverse_depth, 0);
+    if (options_.depth_prior_weight > 0.0) {
+      owned_costs.push_back(std::make_unique<InverseDepthPriorCost>(p->prior_inverse_depth,
+                                                                    options_.depth_prior_weight));
+      problem.AddResidualBlock(owned_costs.back().get(), nullptr, &p->inverse_depth);
+    }
+  }
+  if (num_blocks == 0) {
+    *why = "no residual blocks (no points visible in two keyframes)";
+    return false;
+  }
+  if (options_.pose_prior_weight > 0.0) {
+    for (size_t i = 1; i < keyframes_.size(); ++i) {
+      const SE3d a_from_b =
+          keyframes_[i - 1]->frontend_pose.Inverse() * keyframes_[i]->frontend_pose;
+      owned_costs.push_back(std::make_unique<ceres::AutoDiffCostFunction<RelativePosePrior, 6, 7, 7>>(
+          new RelativePosePrior(a_from_b, options_.pose_prior_weight)));
+      problem.AddResidualBlock(owned_costs.back().get(), nullptr, keyframes_[i - 1]->pose,
+                               keyframes_[i]->pose);
+    }
+  }
+  if (prior_) {
+    prior_loss = std::make_unique<ceres::ScaledLoss>(nullptr, options_.prior_weight,
+                                                     ceres::DO_NOT_TAKE_OWNERSHIP);
+    std::vector<double*> blocks;
+    for (int id : prior_keyframe_ids_) blocks.push_back(FindKeyframe(id)->pose);
+    problem.AddResidualBlock(prior_.get(), prior_loss.get(), blocks);
+  }
+
+  ceres::Solver::Options solver_options;
+  solver_options.linear_solver_type = options_.linear_solver == "dense_schur"
+                                          ? ceres::DENSE_SCHUR
+                                          : ceres::SPARSE_SCHUR;
+  solver_options.sparse_linear_algebra_library_type = ceres::SUITE_SPARSE;
+  solver_options.linear_solver_ordering = ordering;
+  solver_options.max_num_iterations = options_.max_iterations;
+  solver_options.max_solver_time_in_seconds = options_.max_solver_time_s;
+  solver_options.num_threads = options_.num_threads;
+  solver_options.logging_type = ceres::SILENT;
+  solver_options.minimizer_progress_to_stdout = false;
+  ceres::Solver::Summary summary;
+  ceres::Solve(solver_options, &problem, &summary);
+  *initial_cost = summary.initial_cost;
+  *final_cost = summary.final_cost;
+  bool state_finite = true;
+  for (const auto& kf : keyframes_) {
+    for (double v : kf->pose) state_finite = state_finite && std::isfinite(v);
+  }
+  for (const auto& p : points_) state_finite = state_finite && std::isfinite(p->inverse_depth);
+  if (summary.termination_type == ceres::FAILURE || !summary.IsSolutionUsable() ||
+      !std::isfinite(summary.final_cost) || !std::isfinite(summary.initial_cost) ||
+      !state_finite) {
+    std::ostringstream msg;
+    msg << "bundle adjustment failed (" << ceres::TerminationTypeToString(summary.termination_type)
+        << ", cost " << summary.initial_cost << " -> " << summary.final_cost
+        << "): " << summary.message << "; the window keeps its previous state";
+    *why = msg.str();
+    restore();
+    return false;
+  }
+  return true;
+}
+
+int WindowOptimizer::GateOutliers() {
+  // Block costs per target keyframe at the current estimate.
+  std::map<int, std::vector<double>> costs_by_target;
+  std::vector<std::vector<std::pair<int, double>>> per_point(points_.size());
+  std::vector<double> residuals;
+  for (size_t i = 0; i < points_.size(); ++i) {
+    PointState& p = *points_[i];
+    KeyframeState* host = FindKeyframe(p.host_id);
+    for (auto& [target_id, cost] : p.residuals) {
+      residuals.resize(cost->num_residuals());
+      cost->EvaluateTangent(host->pose, FindKeyframe(target_id)->pose, p.inverse_depth,
+                            residuals.data(), nullptr, nullptr, nullptr);
+      double sq = 0.0;
+      for (double r : residuals) sq += r * r;
+      costs_by_target[target_id].push_back(sq);
+      per_point[i].emplace_back(target_id, sq);
+    }
+  }
+  std::map<int, double> threshold;
+  for (auto& [target_id, costs] : costs_by_target) {
+    threshold[target_id] =
+        options_.outlier_gate_factor * Quantile(costs, options_.outlier_gate_percentile);
+  }
+  int removed = 0;
+  for (size_t i = 0; i < points_.size(); ++i) {
+    for (const auto& [target_id, sq] : per_point[i]) {
+      if (sq > threshold[target_id] || !std::isfinite(sq)) {
+        points_[i]->residuals.erase(target_id);
+        ++removed;
+      }
+    }
+  }
+  RemovePointsWithoutResiduals();
+  return removed;
+}
+
+WindowResult WindowOptimizer::AddKeyframe(KeyframeData data) {
+  const int level = options_.pyramid_level;
+  auto input_error = [&](const std::string& what) {
+    std::ostringstream msg;
+    msg << "keyframe " << data.frame_index << ": " << what;
+    throw InputError(msg.str());
+  };
+  if (data.features.num_levels() <= level) {
+    input_error("feature pyramid has " + std::to_string(data.features.num_levels()) +
+                " levels; window.pyramid_level = " + std::to_string(level) + " needs " +
+                std::to_string(level + 1));
+  }
+  if (data.depth.num_levels() <= level) {
+    input_error("depth pyramid has " + std::to_string(data.depth.num_levels()) +
+                " levels; window.pyramid_level = " + std::to_string(level) + " needs " +
+                std::to_string(level + 1));
+  }
+  FeatureLevel& f = data.features.levels[level];
+  const ImageF& d = data.depth.levels[level];
+  if (d.width() != f.width || d.height() != f.height || d.channels() != 1) {
+    std::ostringstream msg;
+    msg << "depth level " << level << " is " << d.width() << "x" << d.height() << "x"
+        << d.channels() << "; expected " << f.width << "x" << f.height << "x1 as the features";
+    input_error(msg.str());
+  }
+  if (f.channels < 1 || f.data.size() != static_cast<size_t>(f.width) * f.height * f.channels ||
+      f.width < options_.patch_size + 3 || f.height < options_.patch_size + 3) {
+    std::ostringstream msg;
+    msg << "feature level " << level << " is " << f.width << "x" << f.height << "x" << f.channels
+        << " with " << f.data.size() << " values; expected a consistent planar map larger than "
+        << options_.patch_size + 2 << " px";
+    input_error(msg.str());
+  }
+  if (f.has_mask() && f.mask.size() != static_cast<size_t>(f.width) * f.height) {
+    input_error("mask has " + std::to_string(f.mask.size()) + " values; expected " +
+                std::to_string(f.width * f.height));
+  }
+  if (channels_ != 0 && f.channels != channels_) {
+    input_error("features have " + std::to_string(f.channels) + " channels; the window's have " +
+                std::to_string(channels_));
+  }
+  channels_ = f.channels;
+  if (!loss_) {
+    const double a = options_.loss_scale *
+                     std::sqrt(static_cast<double>(channels_) * options_.patch_size *
+                               options_.patch_size);
+    if (options_.loss == "cauchy") {
+      loss_ = std::make_unique<ceres::CauchyLoss>(a);
+    } else {
+      loss_ = std::make_unique<ceres::HuberLoss>(a);
+    }
+  }
+
+  auto kf = std::make_unique<KeyframeState>();
+  kf->id = next_keyframe_id_++;
+  kf->frame_index = data.frame_index;
+  kf->timestamp_ns = data.timestamp_ns;
+  PoseToParameters(data.world_from_cam, kf->pose);
+  kf->frontend_pose = data.world_from_cam;
+  kf->level = std::move(f);
+  kf->depth = d;
+  KeyframeState* new_kf = kf.get();
+  keyframes_.push_back(std::move(kf));
+  SelectPoints(new_kf);
+  ConnectNewKeyframe(new_kf);
+
+  WindowResult result;
+  const auto solve_start = std::chrono::steady_clock::now();
+  if (keyframes_.size() < 2) {
+    result.message = "nothing to optimise (one keyframe)";
+  } else {
+    double c0 = 0.0, c1 = 0.0;
+    std::string why;
+    if (Solve(&c0, &c1, &why)) {
+      result.optimized = true;
+      result.initial_cost = c0;
+      result.final_cost = c1;
+      result.num_gated_blocks = GateOutliers();
+      if (result.num_gated_blocks > 0) {
+        double c2 = 0.0, c3 = 0.0;
+        if (Solve(&c2, &c3, &why)) {
+          result.final_cost = c3;
+        } else {
+          result.message = "second solve: " + why;
+        }
+      }
+    } else {
+      result.message = why;
+    }
+  }
+  result.solve_ms = MsSince(solve_start);
+
+  if (num_keyframes() > options_.max_keyframes) {
+    const auto marg_start = std::chrono::steady_clock::now();
+    const int position = ChooseKeyframeToMarginalize();
+    result.marginalized_frame_index = keyframes_[position]->frame_index;
+    result.marginalized_pose = PoseFromParameters(keyframes_[position]->pose);
+    MarginalizeKeyframe(position, &result);
+    result.marginalization_ms = MsSince(marg_start);
+  }
+  result.keyframe_poses = KeyframePoses();
+  result.num_points = num_points();
+  result.num_residual_blocks = num_residual_blocks();
+  return result;
+}
+
+// DSO's choice (FullSystem::flagFramesForMarginalization): a keyframe with < 5% of its points
+// left goes first; otherwise the one maximising sqrt(d(i, newest)) * sum_j 1 / (d(i, j) + eps),
+// d the distance between camera centres: far from the newest, close to the others. The newest
+// two never leave.
+int WindowOptimizer::ChooseKeyframeToMarginalize() const {
+  const int n = num_keyframes();
+  std::map<int, int> live;
+  for (const auto& p : points_) ++live[p->host_id];
+  for (int i = 0; i < n - 2; ++i) {
+    const KeyframeState& kf = *keyframes_[i];
+    const double fraction =
+        kf.num_selected > 0 ? static_cast<double>(live[kf.id]) / kf.num_selected : 0.0;
+    if (fraction < options_.min_point_fraction) return i;
+  }
+  std::vector<Eigen::Vector3d> centres;
+  for (const auto& kf : keyframes_) centres.push_back(PoseFromParameters(kf->pose).translation());
+  double mean_step = 0.0;
+  for (int i = 1; i < n; ++i) mean_step += (centres[i] - centres[i - 1]).norm();
+  const double eps = 1e-5 * std::max(mean_step / std::max(n - 1, 1), 1e-9);
+  int best = 0;
+  double best_score = -1.0;
+  for (int i = 0; i < n - 2; ++i) {
+    double sum = 0.0;
+    for (int j = 0; j < n; ++j) {
+      if (j != i) sum += 1.0 / ((centres[i] - centres[j]).norm() + eps);
+    }
+    const double score = std::sqrt((centres[i] - centres[n - 1]).norm()) * sum;
+    if (score > best_score) {
+      best_score = score;
+      best = i;
+    }
+  }
+  return best;
+}
+
+void WindowOptimizer::MarginalizeKeyframe(int position, WindowResult* result) {
+  KeyframeState* leaving = keyframes_[position].get();
+  const int leaving_id = leaving->id;
+  auto warn = [result](const std::string& text) {
+    if (!result->message.empty()) result->message += "; ";
+    result->message += text;
+  };
+
+  if (options_.marginalization) {
+    // Variables: every window pose (index = position), then the marginalised points.
+    std::vector<MarginalizationVariable> variables;
+    std::map<int, int> pose_var;  // keyframe id -> variable
+    for (const auto& kf : keyframes_) {
+      pose_var[kf->id] = static_cast<int>(variables.size());
+      variables.push_back({kPoseTangentSize, kf->id == leaving_id});
+    }
+    // First estimates: the pose values at which the current prior was linearised.
+    std::map<int, const double*> first_estimate;
+    if (options_.first_estimate_jacobians && prior_) {
+      for (size_t b = 0; b < prior_keyframe_ids_.size(); ++b) {
+        first_estimate[prior_keyframe_ids_[b]] = prior_->x0()[b].data();
+      }
+    }
+    auto linearization_pose = [&](const KeyframeState* kf) {
+      auto it = first_estimate.find(kf->id);
+      return it != first_estimate.end() ? it->second : kf->pose;
+    };
+    std::vector<LinearizedFactor> factors;
+    int marginalized_points = 0;
+    for (const auto& p : points_) {
+      if (p->host_id != leaving_id) continue;
+      if (static_cast<int>(p->residuals.size()) < options_.min_marginalized_observations) continue;
+      const int point_var = static_cast<int>(variables.size());
+      variables.push_back({1, true});
+      ++marginalized_points;
+      for (const auto& [target_id, cost] : p->residuals) {
+        const KeyframeState* target = FindKeyframe(target_id);
+        const int n = cost->num_residuals();
+        LinearizedFactor factor;
+        factor.residual.resize(n);
+        RowMajorMatrixXd j_host(n, 6), j_target(n, 6);
+        Eigen::VectorXd j_depth(n);
+        cost->EvaluateTangent(linearization_pose(leaving), linearization_pose(target),
+                              p->inverse_depth, factor.residual.data(), j_host.data(),
+                              j_target.data(), j_depth.data());
+        if (!first_estimate.empty()) {
+          // Residual at the current estimate, Jacobians at the first estimates.
+          cost->EvaluateTangent(leaving->pose, target->pose, p->inverse_depth,
+                                factor.residual.data(), nullptr, nullptr, nullptr);
+        }
+        factor.variables = {pose_var[leaving_id], pose_var[target_id], point_var};
+        factor.jacobians = {j_host, j_target, j_depth};
+        ApplyLossCorrection(loss_.get(), &factor);
+        factors.push_back(std::move(factor));
+      }
+      if (options_.depth_prior_weight > 0.0) {
+        const double s = std::sqrt(options_.depth_prior_weight) / p->prior_inverse_depth;
+        LinearizedFactor factor;
+        factor.residual = Eigen::VectorXd::Constant(1, s * (p->inverse_depth - p->prior_inverse_depth));
+        factor.variables = {point_var};
+        factor.jacobians = {Eigen::MatrixXd::Constant(1, 1, s)};
+        factors.push_back(std::move(factor));
+      }
+    }
+    if (prior_) {
+      // The old prior joins (it involves the leaving pose in general); it enters unweighted, the
+      // weight is applied in each solve only, so it does not compound.
+      std::vector<const double*> blocks;
+      for (int id : prior_keyframe_ids_) blocks.push_back(FindKeyframe(id)->pose);
+      LinearizedFactor factor = prior_->Linearize(blocks.data());
+      for (int& v : factor.variables) v = pose_var[prior_keyframe_ids_[v]];
+      factors.push_back(std::move(factor));
+    }
+    prior_.reset();
+    prior_keyframe_ids_.clear();
+    if (!factors.empty()) {
+      MarginalizationOptions marg_options;
+      marg_options.relative_eigenvalue_floor = options_.relative_eigenvalue_floor;
+      LinearPrior prior;
+      std::string why;
+      if (Marginalize(variables, factors, marg_options, &prior, &why)) {
+        std::vector<PriorBlockKind> kinds;
+        std::vector<std::vector<double>> x0;
+        for (int v : prior.variables) {
+          const KeyframeState* kf = keyframes_[v].get();  // pose variables come first
+          prior_keyframe_ids_.push_back(kf->id);
+          kinds.push_back(PriorBlockKind::kPose);
+          x0.emplace_back(kf->pose, kf->pose + kPoseAmbientSize);
+        }
+        prior_ = std::make_unique<LinearPriorCost>(std::move(prior), std::move(kinds),
+                                                   std::move(x0),
+                                                   options_.first_estimate_jacobians);
+      } else {
+        warn("marginalisation prior of keyframe " + std::to_string(leaving->frame_index) +
+             " rejected: " + why + " (its information is dropped)");
+      }
+    }
+    (void)marginalized_points;
+  } else {
+    prior_.reset();
+    prior_keyframe_ids_.clear();
+  }
+
+  // Drop the leaving keyframe's points and every block into it.
+  points_.erase(std::remove_if(points_.begin(), points_.end(),
+                               [leaving_id](const std::unique_ptr<PointState>& p) {
+                                 return p->host_id == leaving_id;
+                               }),
+                points_.end());
+  for (auto& p : points_) p->residuals.erase(leaving_id);
+  keyframes_.erase(keyframes_.begin() + position);
+  RemovePointsWithoutResiduals();
+}
+
+}  // namespace dfo

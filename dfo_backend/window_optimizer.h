@@ -1,0 +1,195 @@
+// The sliding window of keyframes with feature-metric bundle adjustment and marginalisation
+// (issue 5; DESIGN.md, backend: DSO's window and marginalisation policy, VINS-Mono's Ceres prior,
+// PixSfM's feature-metric cost).
+//
+//   WindowOptimizer window(options);
+//   for each new keyframe (from the frontend):
+//     WindowResult result = window.AddKeyframe(std::move(keyframe_data));
+//     // result.keyframe_poses: every window keyframe's optimised world_from_cam;
+//     // result.marginalized_frame_index / marginalized_pose: the keyframe that left, if any.
+//
+// What one AddKeyframe does:
+//  1. Select up to points_per_keyframe points in the new keyframe at pyramid_level (mask pixels
+//     if the level has a mask, else high feature gradient, one per grid cell, spread over the
+//     image), each with one inverse depth from the keyframe's depth (pixels without a valid
+//     depth are skipped); create a residual block (dfo_backend/feature_metric_cost.h) from every
+//     point to every other window keyframe in which its patch is visible, old points included.
+//  2. Solve with Ceres: poses on the SE(3) manifold (pose_manifold.h), the oldest keyframe held
+//     constant (gauge), inverse depths bounded below by min_inverse_depth, Huber or Cauchy loss,
+//     points eliminated first, optional priors; then drop, per target keyframe, the blocks whose
+//     cost exceeds outlier_gate_factor x the outlier_gate_percentile cost of that keyframe, and
+//     solve once more. A solve that fails or ends with a non-finite cost restores the state it
+//     started from (result.optimized = false, result.message says why).
+//  3. If the window holds more than max_keyframes, one keyframe leaves (never the newest two):
+//     the oldest with fewer than min_point_fraction of its points left, else DSO's distance
+//     choice (far from the newest, close to the others). Its points with at least
+//     min_marginalized_observations blocks are marginalised into a prior on the kept poses, its
+//     other points are dropped, blocks of other points into it are dropped
+//     (dfo_backend/marginalization.h). marginalization = false only drops.
+// Memory is bounded: at most max_keyframes + 1 keyframes, points_per_keyframe points each and one
+// block per (point, other keyframe) exist at any time.
+#ifndef DFO_BACKEND_WINDOW_OPTIMIZER_H_
+#define DFO_BACKEND_WINDOW_OPTIMIZER_H_
+
+#include <memory>
+#include <string>
+#include <utility>
+#include <vector>
+
+#include "dfo_core/keyframe.h"
+#include "dfo_core/lie.h"
+
+namespace ceres {
+class LossFunction;
+}
+
+namespace dfo {
+
+class LinearPriorCost;
+class SE3Manifold;
+
+// Settings of the window (YAML sections "window" and, for the marginalisation switches,
+// "backend"). Check() names the key: "window.max_keyframes = 3 violates >= 5".
+struct WindowOptions {
+  // Keyframes kept in the window after each step; >= 5 (DSO uses 5-7; issue: default 7).
+  int max_keyframes = 7;
+  // Pyramid level of the feature and depth maps the BA works on (0 = finest); >= 0 and less than
+  // the number of levels of every keyframe.
+  int pyramid_level = 1;
+  // Side K of the square feature patch per point, pixels at pyramid_level; odd, in [1, 9].
+  int patch_size = 3;
+  // Points selected per keyframe; in [1, 100000].
+  int points_per_keyframe = 300;
+  // Robust loss on each block: "huber" or "cauchy".
+  std::string loss = "huber";
+  // Scale of the loss per feature value: the Ceres loss parameter is loss_scale * sqrt(C K^2),
+  // so a block whose RMS residual (z-scored feature units) is below loss_scale is quadratic
+  // (Huber); > 0.
+  double loss_scale = 0.5;
+  // Ceres linear solver: "sparse_schur" (SuiteSparse) or "dense_schur".
+  std::string linear_solver = "sparse_schur";
+  // Levenberg-Marquardt iterations per solve (there are up to two solves per keyframe); >= 1.
+  int max_iterations = 8;
+  // Wall-time limit of one solve in seconds; > 0.
+  double max_solver_time_s = 0.2;
+  // Ceres threads; >= 1 (1 gives run-to-run identical results).
+  int num_threads = 2;
+  // Lower bound of every inverse depth in 1/m (1e-3: points may lie up to 1 km away); >= 0.
+  double min_inverse_depth = 1e-3;
+  // Weight of the prior pulling each inverse depth toward its keyframe depth, on the relative
+  // error (rho - rho0) / rho0; >= 0 (0 = off). Also fixes the scale gauge when > 0.
+  double depth_prior_weight = 0.0;
+  // Weight of the prior pulling the relative pose of consecutive window keyframes toward the
+  // frontend's, on [2 vec(q_err) (rad); t_err (m)]; >= 0 (0 = off).
+  double pose_prior_weight = 0.0;
+  // Per-frame outlier gate after the first solve: a block is dropped when its cost exceeds
+  // outlier_gate_factor x the outlier_gate_percentile quantile of the block costs of the same
+  // target keyframe; percentile in (0, 1], factor >= 1.
+  double outlier_gate_percentile = 0.9;
+  double outlier_gate_factor = 2.0;
+  // A keyframe with fewer than this fraction of its selected points left leaves first (DSO: 5%);
+  // in [0, 1].
+  double min_point_fraction = 0.05;
+  // Points of the leaving keyframe with at least this many residual blocks are marginalised, the
+  // rest dropped; >= 1.
+  int min_marginalized_observations = 2;
+  // backend.marginalization: marginalise into a prior (true) or only drop (false).
+  bool marginalization = true;
+  // backend.first_estimate_jacobians: the prior's Jacobian stays the one at its linearisation
+  // point, and factors of prior-connected poses are linearised at their first estimates.
+  bool first_estimate_jacobians = false;
+  // backend.prior_weight: weight of the marginalisation prior in each solve, in (0, 1]
+  // (< 1 softens the inconsistency of relinearising prior-connected poses).
+  double prior_weight = 1.0;
+  // backend.relative_eigenvalue_floor: eigenvalues of the prior below this fraction of the
+  // largest are dropped; in (0, 1).
+  double relative_eigenvalue_floor = 1e-8;
+
+  // Throws ConfigError naming the key, its value and the rule.
+  void Check() const;
+};
+
+// What one AddKeyframe did.
+struct WindowResult {
+  // True when a BA ran and its result was kept; false when it failed or diverged (the state
+  // before the solve was kept, `message` says why) or there was nothing to optimise (fewer than
+  // two keyframes).
+  bool optimized = false;
+  // Why optimized is false, and warnings (e.g. a rejected marginalisation prior); "" if none.
+  std::string message;
+  // (frame_index, world_from_cam) of every keyframe in the window after this step, oldest first.
+  std::vector<std::pair<int, SE3d>> keyframe_poses;
+  // The keyframe that left the window in this step (-1: none) and its final pose.
+  int marginalized_frame_index = -1;
+  SE3d marginalized_pose;
+  // Ceres cost (0.5 sum of robustified squared residuals) before the first and after the last
+  // solve.
+  double initial_cost = 0.0;
+  double final_cost = 0.0;
+  // Window size after this step.
+  int num_points = 0;
+  int num_residual_blocks = 0;
+  // Number of blocks the outlier gate dropped.
+  int num_gated_blocks = 0;
+  // Wall time of the solves (both) and of the marginalisation, milliseconds.
+  double solve_ms = 0.0;
+  double marginalization_ms = 0.0;
+};
+
+// The sliding-window optimiser. Not thread-safe; deterministic for num_threads = 1.
+class WindowOptimizer {
+ public:
+  // Throws ConfigError when options.Check() fails.
+  explicit WindowOptimizer(const WindowOptions& options);
+  ~WindowOptimizer();
+  WindowOptimizer(const WindowOptimizer&) = delete;
+  WindowOptimizer& operator=(const WindowOptimizer&) = delete;
+
+  // Inserts a keyframe, optimises, marginalises if the window is over max_keyframes (see the
+  // file comment). Throws InputError (naming the frame index) when the keyframe lacks the BA
+  // pyramid level, its depth and feature sizes differ, or its channel count differs from the
+  // window's; NaN/zero depth is not an error (those pixels host no points).
+  WindowResult AddKeyframe(KeyframeData keyframe);
+
+  int num_keyframes() const;
+  int num_points() const;
+  int num_residual_blocks() const;
+  // (frame_index, world_from_cam) of the window keyframes, oldest first.
+  std::vector<std::pair<int, SE3d>> KeyframePoses() const;
+  // The current marginalisation prior (nullptr: none) and the frame indices of its pose blocks
+  // in the prior's block order.
+  const LinearPriorCost* prior() const;
+  std::vector<int> PriorFrameIndices() const;
+  // Inverse depth and host frame index of every live point (for tests and diagnostics).
+  std::vector<std::pair<int, double>> PointInverseDepths() const;
+
+  const WindowOptions& options() const { return options_; }
+
+ private:
+  struct KeyframeState;
+  struct PointState;
+
+  void SelectPoints(KeyframeState* keyframe);
+  void ConnectNewKeyframe(KeyframeState* keyframe);
+  // One Ceres solve over the current state; false with *why on failure (state untouched then).
+  bool Solve(double* initial_cost, double* final_cost, std::string* why);
+  int GateOutliers();
+  int ChooseKeyframeToMarginalize() const;
+  void MarginalizeKeyframe(int position, WindowResult* result);
+  void RemovePointsWithoutResiduals();
+  KeyframeState* FindKeyframe(int id) const;
+
+  WindowOptions options_;
+  std::unique_ptr<ceres::LossFunction> loss_;
+  std::unique_ptr<SE3Manifold> manifold_;
+  std::vector<std::unique_ptr<KeyframeState>> keyframes_;  // oldest first
+  std::vector<std::unique_ptr<PointState>> points_;
+  std::unique_ptr<LinearPriorCost> prior_;
+  std::vector<int> prior_keyframe_ids_;  // KeyframeState::id per prior block
+  int next_keyframe_id_ = 0;
+  int channels_ = 0;
+};
+
+}  // namespace dfo
+
+#endif  // DFO_BACKEND_WINDOW_OPTIMIZER_H_

@@ -1,0 +1,245 @@
+// The pose manifold and the feature-metric cost: analytic Jacobians against numeric ones
+// (ceres::GradientChecker, through the manifold) and against an autodiff twin of the residual.
+#include "dfo_backend/feature_metric_cost.h"
+
+#include <ceres/autodiff_cost_function.h>
+#include <ceres/gradient_checker.h>
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <random>
+
+#include "dfo_backend/pose_manifold.h"
+
+namespace dfo {
+namespace {
+
+// Smooth, non-periodic C-channel feature map (sums of sinusoids with per-channel frequencies).
+FeatureLevel SmoothLevel(int width, int height, int channels) {
+  const PinholeCamera camera(60.0, 60.0, (width - 1) / 2.0, (height - 1) / 2.0, width, height);
+  FeatureLevel level(width, height, channels, camera);
+  for (int c = 0; c < channels; ++c) {
+    for (int y = 0; y < height; ++y) {
+      for (int x = 0; x < width; ++x) {
+        level.Channel(c)[y * width + x] = static_cast<float>(
+            std::sin(0.31 * x * (1 + 0.2 * c) + 0.17 * y) + 0.5 * std::cos(0.23 * y * (1 + c) - 0.11 * x + c));
+      }
+    }
+  }
+  return level;
+}
+
+SE3d RandomPose(std::mt19937* rng, double rot, double trans) {
+  std::normal_distribution<double> n(0.0, 1.0);
+  Vector6d xi;
+  for (int i = 0; i < 3; ++i) xi(i) = trans * n(*rng);
+  for (int i = 3; i < 6; ++i) xi(i) = rot * n(*rng);
+  return SE3d::Exp(xi);
+}
+
+// Autodiff twin of FeatureMetricCost: the same residual written directly (X_h = ray / rho,
+// X_t = T_t^-1 T_h X_h), differentiated by Ceres's Jets.
+struct FeatureMetricTwin {
+  const FeatureLevel* target;
+  PinholeCamera host_camera;
+  Eigen::Vector2d uv;
+  int patch_size;
+  std::vector<double> host_patch;
+
+  template <typename T>
+  static double Scalar(const T& v) {
+    if constexpr (std::is_same_v<T, double>) {
+      return v;
+    } else {
+      return v.a;
+    }
+  }
+
+  template <typename T>
+  bool operator()(const T* host, const T* tgt, const T* rho, T* residuals) const {
+    Eigen::Quaternion<T> qh(host[3], host[0], host[1], host[2]);
+    Eigen::Quaternion<T> qt(tgt[3], tgt[0], tgt[1], tgt[2]);
+    qh.normalize();
+    qt.normalize();
+    const Eigen::Matrix<T, 3, 1> th(host[4], host[5], host[6]), tt(tgt[4], tgt[5], tgt[6]);
+    const int r = patch_size / 2, kk = patch_size * patch_size;
+    const int w = target->width, h = target->height;
+    const PinholeCamera& cam = target->camera;
+    for (int dy = -r; dy <= r; ++dy) {
+      for (int dx = -r; dx <= r; ++dx) {
+        const int k = (dy + r) * patch_size + (dx + r);
+        const Eigen::Vector3d ray = host_camera.Ray(Eigen::Vector2d(uv.x() + dx, uv.y() + dy));
+        const Eigen::Matrix<T, 3, 1> x_h = ray.cast<T>() / rho[0];
+        const Eigen::Matrix<T, 3, 1> x_t = qt.conjugate() * (qh * x_h + th - tt);
+        const T px = T(cam.fx) * x_t.x() / x_t.z() + T(cam.cx);
+        const T py = T(cam.fy) * x_t.y() / x_t.z() + T(cam.cy);
+        const double sx = Scalar(px), sy = Scalar(py);
+        const bool inside = Scalar(x_t.z()) > 0 && sx >= 0 && sy >= 0 && sx <= w - 1.0 &&
+                            sy <= h - 1.0;
+        for (int c = 0; c < target->channels; ++c) {
+          if (!inside) {
+            residuals[c * kk + k] = T(0);
+            continue;
+          }
+          const int x0 = std::min(static_cast<int>(std::floor(sx)), w - 2);
+          const int y0 = std::min(static_cast<int>(std::floor(sy)), h - 2);
+          const T ax = px - T(x0), ay = py - T(y0);
+          const double v00 = target->At(c, x0, y0), v10 = target->At(c, x0 + 1, y0);
+          const double v01 = target->At(c, x0, y0 + 1), v11 = target->At(c, x0 + 1, y0 + 1);
+          const T value = (T(1) - ay) * ((T(1) - ax) * v00 + ax * v10) +
+                          ay * ((T(1) - ax) * v01 + ax * v11);
+          residuals[c * kk + k] = T(host_patch[c * kk + k]) - value;
+        }
+      }
+    }
+    return true;
+  }
+};
+
+struct CostFixture {
+  FeatureLevel host = SmoothLevel(64, 48, 4);
+  FeatureLevel target = SmoothLevel(64, 48, 4);
+  double host_pose[7], target_pose[7];
+  double rho = 0.2;  // 5 m
+  Eigen::Vector2d uv{30, 22};
+  std::shared_ptr<const std::vector<double>> patch;
+
+  explicit CostFixture(int seed) {
+    std::mt19937 rng(seed);
+    const SE3d world_from_host = RandomPose(&rng, 0.3, 1.0);
+    // Target near the host, so the point stays in view.
+    const SE3d world_from_target = world_from_host * RandomPose(&rng, 0.03, 0.2);
+    PoseToParameters(world_from_host, host_pose);
+    PoseToParameters(world_from_target, target_pose);
+    patch = std::make_shared<const std::vector<double>>(
+        SampleHostPatch(host, static_cast<int>(uv.x()), static_cast<int>(uv.y()), 3));
+  }
+};
+
+TEST(PoseManifoldTest, MinusJacobianIsLeftInverseOfPlusJacobian) {
+  std::mt19937 rng(3);
+  for (int trial = 0; trial < 10; ++trial) {
+    double x[7];
+    PoseToParameters(RandomPose(&rng, 1.0, 3.0), x);
+    const Matrix6d product = PoseMinusJacobian(x) * PosePlusJacobian(x);
+    EXPECT_LT((product - Matrix6d::Identity()).cwiseAbs().maxCoeff(), 1e-12);
+  }
+}
+
+TEST(PoseManifoldTest, PlusMinusRoundTripAndLeftPerturbation) {
+  std::mt19937 rng(4);
+  SE3Manifold manifold;
+  double x[7], y[7];
+  const SE3d pose = RandomPose(&rng, 1.0, 3.0);
+  PoseToParameters(pose, x);
+  Vector6d delta;
+  delta << 0.1, -0.2, 0.3, 0.05, -0.02, 0.04;
+  ASSERT_TRUE(manifold.Plus(x, delta.data(), y));
+  const SE3d expected = SE3d::Exp(delta) * pose;
+  EXPECT_LT((PoseFromParameters(y).Matrix3x4Form() - expected.Matrix3x4Form()).cwiseAbs().maxCoeff(),
+            1e-12);
+  Vector6d back;
+  ASSERT_TRUE(manifold.Minus(y, x, back.data()));
+  EXPECT_LT((back - delta).cwiseAbs().maxCoeff(), 1e-12);
+}
+
+TEST(PoseManifoldTest, PlusJacobianMatchesFiniteDifferences) {
+  std::mt19937 rng(5);
+  SE3Manifold manifold;
+  double x[7];
+  PoseToParameters(RandomPose(&rng, 1.0, 3.0), x);
+  const Matrix7x6d analytic = PosePlusJacobian(x);
+  const double h = 1e-7;
+  for (int j = 0; j < 6; ++j) {
+    double dp[6] = {0, 0, 0, 0, 0, 0}, dm[6] = {0, 0, 0, 0, 0, 0}, yp[7], ym[7];
+    dp[j] = h;
+    dm[j] = -h;
+    manifold.Plus(x, dp, yp);
+    manifold.Plus(x, dm, ym);
+    for (int i = 0; i < 7; ++i) EXPECT_NEAR((yp[i] - ym[i]) / (2 * h), analytic(i, j), 1e-7);
+  }
+}
+
+TEST(FeatureMetricCostTest, GradientCheckerPassesThroughTheManifold) {
+  for (int seed = 0; seed < 5; ++seed) {
+    CostFixture fx(seed);
+    FeatureMetricCost cost(&fx.target, fx.host.camera, fx.uv, 3, fx.patch);
+    ASSERT_EQ(cost.num_residuals(), 4 * 9);
+    ASSERT_EQ(cost.NumVisible(fx.host_pose, fx.target_pose, fx.rho), 9) << "seed " << seed;
+    SE3Manifold manifold;
+    const std::vector<const ceres::Manifold*> manifolds = {&manifold, &manifold, nullptr};
+    // GradientChecker differentiates with Ridders' method from a 1% step by default; the
+    // bilinear interpolant is only piecewise smooth (cells of 1 px), so start from a tiny step.
+    ceres::NumericDiffOptions numeric;
+    numeric.ridders_relative_initial_step_size = 1e-6;
+    ceres::GradientChecker checker(&cost, &manifolds, numeric);
+    const double* params[] = {fx.host_pose, fx.target_pose, &fx.rho};
+    ceres::GradientChecker::ProbeResults results;
+    EXPECT_TRUE(checker.Probe(params, 1e-6, &results)) << "seed " << seed << "\n"
+                                                       << results.error_log;
+  }
+}
+
+TEST(FeatureMetricCostTest, AnalyticEqualsAutodiffTwin) {
+  for (int seed = 10; seed < 15; ++seed) {
+    CostFixture fx(seed);
+    FeatureMetricCost cost(&fx.target, fx.host.camera, fx.uv, 3, fx.patch);
+    auto* twin = new FeatureMetricTwin{&fx.target, fx.host.camera, fx.uv, 3, *fx.patch};
+    ceres::AutoDiffCostFunction<FeatureMetricTwin, ceres::DYNAMIC, 7, 7, 1> autodiff(twin, 36);
+    const int n = 36;
+    const double* params[] = {fx.host_pose, fx.target_pose, &fx.rho};
+    Eigen::VectorXd r_analytic(n), r_auto(n);
+    RowMajorMatrixXd jh(n, 6), jt(n, 6);
+    Eigen::VectorXd jr(n);
+    ASSERT_TRUE(cost.EvaluateTangent(fx.host_pose, fx.target_pose, fx.rho, r_analytic.data(),
+                                     jh.data(), jt.data(), jr.data()));
+    RowMajorMatrixXd ah(n, 7), at(n, 7);
+    Eigen::VectorXd ar(n);
+    double* jac[] = {ah.data(), at.data(), ar.data()};
+    ASSERT_TRUE(autodiff.Evaluate(params, r_auto.data(), jac));
+    EXPECT_LT((r_analytic - r_auto).cwiseAbs().maxCoeff(), 1e-9);
+    const RowMajorMatrixXd th = ah * PosePlusJacobian(fx.host_pose);
+    const RowMajorMatrixXd tt = at * PosePlusJacobian(fx.target_pose);
+    const double scale = jh.cwiseAbs().maxCoeff();
+    EXPECT_GT(scale, 1e-3);
+    EXPECT_LT((th - jh).cwiseAbs().maxCoeff(), 1e-8 * scale) << "seed " << seed;
+    EXPECT_LT((tt - jt).cwiseAbs().maxCoeff(), 1e-8 * scale) << "seed " << seed;
+    EXPECT_LT((ar - jr).cwiseAbs().maxCoeff(), 1e-8 * std::max(1.0, jr.cwiseAbs().maxCoeff()));
+    // The gauge: a common left perturbation of both poses changes nothing.
+    EXPECT_LT((jh + jt).cwiseAbs().maxCoeff(), 1e-12 * scale);
+  }
+}
+
+TEST(FeatureMetricCostTest, IdenticalViewsGiveZeroResidual) {
+  CostFixture fx(20);
+  FeatureMetricCost cost(&fx.host, fx.host.camera, fx.uv, 3, fx.patch);
+  std::vector<double> r(cost.num_residuals());
+  ASSERT_TRUE(cost.EvaluateTangent(fx.host_pose, fx.host_pose, fx.rho, r.data(), nullptr, nullptr,
+                                   nullptr));
+  for (double v : r) EXPECT_NEAR(v, 0.0, 1e-6);
+}
+
+TEST(FeatureMetricCostTest, OutOfViewPixelsGiveZeroRowsAndNaNFails) {
+  CostFixture fx(21);
+  // Target turned 90 degrees: nothing of the patch is visible.
+  const SE3d turned = PoseFromParameters(fx.host_pose) *
+                      SE3d(SO3d::Exp(Eigen::Vector3d(0, M_PI / 2, 0)), Eigen::Vector3d::Zero());
+  double target[7];
+  PoseToParameters(turned, target);
+  FeatureMetricCost cost(&fx.target, fx.host.camera, fx.uv, 3, fx.patch);
+  EXPECT_EQ(cost.NumVisible(fx.host_pose, target, fx.rho), 0);
+  const int n = cost.num_residuals();
+  std::vector<double> r(n), jh(n * 6), jt(n * 6), jr(n);
+  ASSERT_TRUE(cost.EvaluateTangent(fx.host_pose, target, fx.rho, r.data(), jh.data(), jt.data(),
+                                   jr.data()));
+  for (double v : r) EXPECT_EQ(v, 0.0);
+  for (double v : jh) EXPECT_EQ(v, 0.0);
+  FeatureLevel nan_level = fx.target;
+  std::fill(nan_level.data.begin(), nan_level.data.end(), std::nanf(""));
+  FeatureMetricCost nan_cost(&nan_level, fx.host.camera, fx.uv, 3, fx.patch);
+  EXPECT_FALSE(nan_cost.EvaluateTangent(fx.host_pose, fx.target_pose, fx.rho, r.data(), nullptr,
+                                        nullptr, nullptr));
+}
+
+}  // namespace
+}  // namespace dfo
