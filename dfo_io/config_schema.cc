@@ -169,6 +169,80 @@ ConfigSchema BuildSchema() {
            "New keyframe at the latest this many frames after the last; >= min_interval")
       .Min(1);
 
+  // Defaults mirror WindowOptions (dfo_backend/window_optimizer.h); a test in tests/apps
+  // compares them. Its num_threads is run.threads (1 with run.deterministic).
+  s.AddSection("window",
+               "Sliding window of keyframes with feature-metric bundle adjustment (Ceres): "
+               "points, patches, loss, solver.");
+  s.AddInt("window.max_keyframes", 7, "Keyframes kept in the window (DSO: 5-7)").Min(5);
+  s.AddInt("window.pyramid_level", 1,
+           "Pyramid level of the feature and depth maps the BA works on (0 = finest); below "
+           "tracker.num_levels")
+      .Min(0);
+  s.AddInt("window.patch_size", 3, "Patch side K in pixels at that level (K x K), odd")
+      .Min(1)
+      .Max(9);
+  s.AddInt("window.points_per_keyframe", 300, "Points selected per keyframe").Min(1).Max(100000);
+  s.AddString("window.loss", "huber", "Robust loss of each residual block")
+      .OneOf({"huber", "cauchy"});
+  s.AddDouble("window.loss_scale", 0.5,
+              "Loss scale per feature value (z-score units): the Ceres parameter is this times "
+              "sqrt(C K^2)")
+      .GreaterThan(0);
+  s.AddString("window.linear_solver", "sparse_schur",
+              "Ceres linear solver: SPARSE_SCHUR with SuiteSparse, or DENSE_SCHUR")
+      .OneOf({"sparse_schur", "dense_schur"});
+  s.AddInt("window.max_iterations", 8,
+           "Levenberg-Marquardt iterations per solve (up to two solves per keyframe)")
+      .Min(1);
+  s.AddDouble("window.max_solver_time_s", 0.2, "Wall-time limit of one solve in seconds")
+      .GreaterThan(0);
+  s.AddDouble("window.min_inverse_depth", 1e-3,
+              "Lower bound of every point's inverse depth in 1/m (1e-3: up to 1 km)")
+      .Min(0);
+  s.AddDouble("window.depth_prior_weight", 0.0,
+              "Weight of the prior of each inverse depth toward its keyframe's depth (relative "
+              "error); 0 = off")
+      .Min(0);
+  s.AddDouble("window.pose_prior_weight", 0.0,
+              "Weight of the prior of consecutive keyframes' relative pose toward the "
+              "frontend's; 0 = off")
+      .Min(0);
+  s.AddDouble("window.outlier_gate_percentile", 0.9,
+              "Outlier gate after the first solve: a block is dropped when its cost exceeds "
+              "outlier_gate_factor x this quantile of the block costs of its target keyframe")
+      .GreaterThan(0)
+      .Max(1);
+  s.AddDouble("window.outlier_gate_factor", 2.0,
+              "Factor of the outlier gate (see outlier_gate_percentile); then a second solve")
+      .Min(1);
+  s.AddDouble("window.min_point_fraction", 0.05,
+              "A keyframe with fewer than this fraction of its points left leaves the window "
+              "first (DSO: 5 %)")
+      .Min(0)
+      .Max(1);
+  s.AddInt("window.min_marginalized_observations", 2,
+           "Points of a leaving keyframe with at least this many residual blocks are "
+           "marginalised, the rest dropped")
+      .Min(1);
+
+  s.AddSection("backend",
+               "Marginalisation of a keyframe leaving the window into a prior on the kept poses "
+               "(VINS-Mono's recipe, DSO's choices).");
+  s.AddBool("backend.marginalization", true,
+            "Marginalise into a prior (true) or only drop the leaving keyframe (false)");
+  s.AddBool("backend.first_estimate_jacobians", false,
+            "Keep the prior's Jacobian and linearise prior-connected poses at their first "
+            "estimates");
+  s.AddDouble("backend.prior_weight", 1.0,
+              "Weight of the marginalisation prior in each solve, in (0, 1]")
+      .GreaterThan(0)
+      .Max(1);
+  s.AddDouble("backend.relative_eigenvalue_floor", 1e-8,
+              "Prior eigenvalues below this fraction of the largest are dropped, in (0, 1)")
+      .GreaterThan(0)
+      .LessThan(1);
+
   s.AddSection("run", "Running dfo: where results go and how.");
   s.AddString("run.mode", "both",
               "What dfo_run estimates from the one frontend pass: the frontend-only trajectory, "

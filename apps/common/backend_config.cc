@@ -1,5 +1,6 @@
 #include "apps/common/backend_config.h"
 
+#include "apps/common/frontend_config.h"
 #include "dfo_core/error.h"
 
 namespace dfo::apps {
@@ -35,6 +36,33 @@ KeyframeOptions KeyframeOptionsFromConfig(const io::Config& config) {
   o.min_inlier_ratio = config.GetDouble("keyframe.min_inlier_ratio");
   o.min_interval = config.GetInt("keyframe.min_interval");
   o.max_interval = config.GetInt("keyframe.max_interval");
+  o.Check();
+  return o;
+}
+
+WindowOptions WindowOptionsFromConfig(const io::Config& config) {
+  WindowOptions o;
+  o.max_keyframes = config.GetInt("window.max_keyframes");
+  o.pyramid_level = config.GetInt("window.pyramid_level");
+  o.patch_size = config.GetInt("window.patch_size");
+  o.points_per_keyframe = config.GetInt("window.points_per_keyframe");
+  o.loss = config.GetString("window.loss");
+  o.loss_scale = config.GetDouble("window.loss_scale");
+  o.linear_solver = config.GetString("window.linear_solver");
+  o.max_iterations = config.GetInt("window.max_iterations");
+  o.max_solver_time_s = config.GetDouble("window.max_solver_time_s");
+  o.min_inverse_depth = config.GetDouble("window.min_inverse_depth");
+  o.depth_prior_weight = config.GetDouble("window.depth_prior_weight");
+  o.pose_prior_weight = config.GetDouble("window.pose_prior_weight");
+  o.outlier_gate_percentile = config.GetDouble("window.outlier_gate_percentile");
+  o.outlier_gate_factor = config.GetDouble("window.outlier_gate_factor");
+  o.min_point_fraction = config.GetDouble("window.min_point_fraction");
+  o.min_marginalized_observations = config.GetInt("window.min_marginalized_observations");
+  o.marginalization = config.GetBool("backend.marginalization");
+  o.first_estimate_jacobians = config.GetBool("backend.first_estimate_jacobians");
+  o.prior_weight = config.GetDouble("backend.prior_weight");
+  o.relative_eigenvalue_floor = config.GetDouble("backend.relative_eigenvalue_floor");
+  o.num_threads = config.GetBool("run.deterministic") ? 1 : ThreadsFromConfig(config);
   o.Check();
   return o;
 }

@@ -8,6 +8,7 @@
 #include <string>
 
 #include "dfo_backend/keyframe_manager.h"
+#include "dfo_backend/window_optimizer.h"
 #include "dfo_io/config.h"
 
 namespace dfo::apps {
@@ -29,6 +30,11 @@ RunMode RunModeFromConfig(const io::Config& config);
 // The keyframe.* keys (except decided_by) as KeyframeOptions, checked (KeyframeOptions::Check
 // throws ConfigError on contradictions such as min_interval > max_interval).
 KeyframeOptions KeyframeOptionsFromConfig(const io::Config& config);
+
+// The window.* and backend.* keys as WindowOptions, num_threads from run.threads (0 = all
+// hardware threads) or 1 when run.deterministic is true (Ceres then gives identical results run
+// to run); checked (WindowOptions::Check throws ConfigError naming the key).
+WindowOptions WindowOptionsFromConfig(const io::Config& config);
 
 // keyframe.decided_by = manager: the frontend runs with reference.policy "external" and the
 // keyframe manager switches it; = frontend: the frontend's own rule ("internal").

@@ -29,6 +29,87 @@ TEST(BackendConfig, SchemaDefaultsEqualKeyframeOptionsDefaults) {
   EXPECT_EQ(apps::RunModeFromConfig(config), apps::RunMode::kBoth);
 }
 
+TEST(BackendConfig, SchemaDefaultsEqualWindowOptionsDefaults) {
+  const io::Config config(io::DfoSchema());
+  const WindowOptions w = apps::WindowOptionsFromConfig(config);
+  const WindowOptions d;
+  EXPECT_EQ(w.max_keyframes, d.max_keyframes);
+  EXPECT_EQ(w.pyramid_level, d.pyramid_level);
+  EXPECT_EQ(w.patch_size, d.patch_size);
+  EXPECT_EQ(w.points_per_keyframe, d.points_per_keyframe);
+  EXPECT_EQ(w.loss, d.loss);
+  EXPECT_EQ(w.loss_scale, d.loss_scale);
+  EXPECT_EQ(w.linear_solver, d.linear_solver);
+  EXPECT_EQ(w.max_iterations, d.max_iterations);
+  EXPECT_EQ(w.max_solver_time_s, d.max_solver_time_s);
+  EXPECT_EQ(w.min_inverse_depth, d.min_inverse_depth);
+  EXPECT_EQ(w.depth_prior_weight, d.depth_prior_weight);
+  EXPECT_EQ(w.pose_prior_weight, d.pose_prior_weight);
+  EXPECT_EQ(w.outlier_gate_percentile, d.outlier_gate_percentile);
+  EXPECT_EQ(w.outlier_gate_factor, d.outlier_gate_factor);
+  EXPECT_EQ(w.min_point_fraction, d.min_point_fraction);
+  EXPECT_EQ(w.min_marginalized_observations, d.min_marginalized_observations);
+  EXPECT_EQ(w.marginalization, d.marginalization);
+  EXPECT_EQ(w.first_estimate_jacobians, d.first_estimate_jacobians);
+  EXPECT_EQ(w.prior_weight, d.prior_weight);
+  EXPECT_EQ(w.relative_eigenvalue_floor, d.relative_eigenvalue_floor);
+  // The deliberate difference: threads come from run.threads, and run.deterministic (default
+  // true) makes Ceres single-threaded.
+  EXPECT_EQ(w.num_threads, 1);
+  const io::Config fast =
+      io::LoadConfigFromString("run:\n  deterministic: false\n  threads: 3\n", "f.yaml",
+                               io::DfoSchema());
+  EXPECT_EQ(apps::WindowOptionsFromConfig(fast).num_threads, 3);
+}
+
+TEST(BackendConfig, EveryWindowAndBackendKeyReachesItsField) {
+  const io::Config config = io::LoadConfigFromString(
+      "window:\n"
+      "  max_keyframes: 5\n"
+      "  pyramid_level: 2\n"
+      "  patch_size: 5\n"
+      "  points_per_keyframe: 123\n"
+      "  loss: cauchy\n"
+      "  loss_scale: 0.75\n"
+      "  linear_solver: dense_schur\n"
+      "  max_iterations: 4\n"
+      "  max_solver_time_s: 0.05\n"
+      "  min_inverse_depth: 0.01\n"
+      "  depth_prior_weight: 0.5\n"
+      "  pose_prior_weight: 0.25\n"
+      "  outlier_gate_percentile: 0.8\n"
+      "  outlier_gate_factor: 3.0\n"
+      "  min_point_fraction: 0.1\n"
+      "  min_marginalized_observations: 3\n"
+      "backend:\n"
+      "  marginalization: false\n"
+      "  first_estimate_jacobians: true\n"
+      "  prior_weight: 0.5\n"
+      "  relative_eigenvalue_floor: 1e-6\n",
+      "all.yaml", io::DfoSchema());
+  const WindowOptions w = apps::WindowOptionsFromConfig(config);
+  EXPECT_EQ(w.max_keyframes, 5);
+  EXPECT_EQ(w.pyramid_level, 2);
+  EXPECT_EQ(w.patch_size, 5);
+  EXPECT_EQ(w.points_per_keyframe, 123);
+  EXPECT_EQ(w.loss, "cauchy");
+  EXPECT_EQ(w.loss_scale, 0.75);
+  EXPECT_EQ(w.linear_solver, "dense_schur");
+  EXPECT_EQ(w.max_iterations, 4);
+  EXPECT_EQ(w.max_solver_time_s, 0.05);
+  EXPECT_EQ(w.min_inverse_depth, 0.01);
+  EXPECT_EQ(w.depth_prior_weight, 0.5);
+  EXPECT_EQ(w.pose_prior_weight, 0.25);
+  EXPECT_EQ(w.outlier_gate_percentile, 0.8);
+  EXPECT_EQ(w.outlier_gate_factor, 3.0);
+  EXPECT_EQ(w.min_point_fraction, 0.1);
+  EXPECT_EQ(w.min_marginalized_observations, 3);
+  EXPECT_FALSE(w.marginalization);
+  EXPECT_TRUE(w.first_estimate_jacobians);
+  EXPECT_EQ(w.prior_weight, 0.5);
+  EXPECT_EQ(w.relative_eigenvalue_floor, 1e-6);
+}
+
 TEST(BackendConfig, EveryKeyframeKeyReachesItsField) {
   const io::Config config = io::LoadConfigFromString(
       "keyframe:\n"
@@ -74,12 +155,14 @@ TEST(BackendConfig, ContradictionsNameTheKeys) {
 }
 
 TEST(BackendConfig, EveryShippedConfigGivesValidBackendOptions) {
-  for (const char* name : {"default.yaml", "demo.yaml", "kitti.yaml", "tum.yaml", "synthetic.yaml"}) {
+  for (const char* name :
+       {"default.yaml", "demo.yaml", "kitti.yaml", "tum.yaml", "synthetic.yaml"}) {
     SCOPED_TRACE(name);
     const io::Config config =
         io::LoadConfig(test::SourceDir() + "/configs/" + name, io::DfoSchema());
     EXPECT_NO_THROW(apps::KeyframeOptionsFromConfig(config));
     EXPECT_NO_THROW(apps::RunModeFromConfig(config));
+    EXPECT_NO_THROW(apps::WindowOptionsFromConfig(config));
   }
 }
 
