@@ -271,8 +271,13 @@ std::vector<torch::Tensor> FeatureNetImpl::Reconstruct(const std::vector<torch::
 
 NetworksImpl::NetworksImpl(const NetworkOptions& options, uint64_t seed) : options_(options) {
   options_.Check();
+  // torch::nn::Conv2d's constructor draws its default initialisation from the global generator;
+  // restore its state so that building networks never changes other code's random numbers.
+  at::Generator global = at::detail::getDefaultCPUGenerator();
+  const torch::Tensor global_state = global.get_state();
   depth = register_module("depth", DepthNet(options_));
   feature = register_module("feature", FeatureNet(options_));
+  global.set_state(global_state);
   InitializeWeights(*this, seed);
 }
 
