@@ -32,6 +32,8 @@ void LossOptions::Check() const {
   Require(sparsity_target > 0.0 && sparsity_target < 1.0, "sparsity_target", sparsity_target,
           "in (0, 1)");
   Require(ae_weight >= 0.0, "ae_weight", ae_weight, ">= 0");
+  Require(depth_mean_m >= 0.0, "depth_mean_m", depth_mean_m, ">= 0");
+  Require(depth_prior_weight >= 0.0, "depth_prior_weight", depth_prior_weight, ">= 0");
 }
 
 torch::Tensor RobustClamp(const torch::Tensor& x, double eps) {

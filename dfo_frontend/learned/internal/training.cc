@@ -301,7 +301,19 @@ StepRecord Trainer::JointStep(const Batch& batch, int iteration) {
   at::Generator gen =
       at::make_generator<at::CPUGeneratorImpl>(StepSeed(options_.seed, iteration, 1));
 
-  const DepthNetOutput depth = networks_->depth->forward(batch.target);
+  const DepthNetOutput raw_depth = networks_->depth->forward(batch.target);
+  // Scale gauge: monocular snippets leave the depth scale unobservable (the alignment's
+  // translation scales with it), so the depths used below are normalised to a batch mean of
+  // depth_mean_m (exactly zero gradient along the global scale), and a weak prior keeps the raw
+  // output's batch mean there (metric-ish, away from the sigmoid's saturated ends).
+  DepthNetOutput depth = raw_depth;
+  torch::Tensor scale_prior = torch::zeros({});
+  if (options_.loss.depth_mean_m > 0.0) {
+    const torch::Tensor batch_mean = raw_depth.depth[0].mean();
+    const torch::Tensor factor = options_.loss.depth_mean_m / batch_mean;
+    for (auto& d : depth.depth) d = d * factor;
+    scale_prior = torch::log(batch_mean / options_.loss.depth_mean_m).pow(2);
+  }
   const FeatureNetOutput target = networks_->feature->forward(batch.target);
   FeatureNetOutput sources[2];
   {
@@ -391,7 +403,8 @@ StepRecord Trainer::JointStep(const Batch& batch, int iteration) {
   }
   const torch::Tensor total = appearance + options_.loss.smooth_weight * smoothness +
                               options_.loss.sparsity_weight * sparsity +
-                              options_.loss.ae_weight * reconstruction;
+                              options_.loss.ae_weight * reconstruction +
+                              options_.loss.depth_prior_weight * scale_prior;
   optimizer_->zero_grad();
   total.backward();
   torch::nn::utils::clip_grad_norm_(networks_->parameters(), options_.max_grad_norm);
@@ -401,7 +414,7 @@ StepRecord Trainer::JointStep(const Batch& batch, int iteration) {
   rec.smoothness = smoothness.item<double>();
   rec.sparsity = sparsity.item<double>();
   rec.reconstruction = reconstruction.item<double>();
-  rec.mean_depth = depth.depth[0].detach().mean().item<double>();
+  rec.mean_depth = raw_depth.depth[0].detach().mean().item<double>();
   return rec;
 }
 

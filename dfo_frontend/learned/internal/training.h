@@ -14,7 +14,10 @@
 //   per-pixel minimum over the two sources of the clamped DSSIM + L1 appearance error (Monodepth2's
 //   minimum reprojection: a pixel occluded in one source is usually visible in the other), plus
 //   lambda_sm / 2^l edge-aware smoothness of the disparity 1 / D_l; lambda_sp KL sparsity of every
-//   level's mask toward rho_l; lambda_ae autoencoder reconstruction.
+//   level's mask toward rho_l; lambda_ae autoencoder reconstruction. Scale gauge (not in the
+//   paper): D is normalised to a batch mean of loss.depth_mean_m before the alignment and the
+//   warping, and a weak prior holds the raw batch mean there; without it the unobservable scale
+//   drifted to the sigmoid's saturated end (mean depth 0.1 m after 20 iterations, measured).
 // The autoencoder stage trains the feature network alone on reconstruction + sparsity.
 #ifndef DFO_FRONTEND_LEARNED_INTERNAL_TRAINING_H_
 #define DFO_FRONTEND_LEARNED_INTERNAL_TRAINING_H_

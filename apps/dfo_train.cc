@@ -1,0 +1,448 @@
+// dfo_train: self-supervised training of the DFO depth and feature networks on KITTI-layout
+// sequences (configs/train_default.yaml), with checkpoints, resume, loss curves and the final
+// model file; also predicts depth PNGs with a trained checkpoint for `dfo_eval depth`.
+#include <atomic>
+#include <chrono>
+#include <csignal>
+#include <cstdio>
+#include <filesystem>
+#include <iostream>
+#include <sstream>
+#include <string>
+#include <vector>
+
+#include <unistd.h>
+
+#include "dfo_core/error.h"
+#include "dfo_frontend/learned/internal/model_file.h"
+#include "dfo_frontend/learned/internal/training.h"
+#include "dfo_io/config.h"
+#include "dfo_io/curve_plot.h"
+#include "dfo_io/dataset.h"
+#include "dfo_io/image_io.h"
+#include "dfo_io/train_schema.h"
+
+namespace dfo {
+namespace {
+
+constexpr const char* kUsage =
+    R"(usage: dfo_train --config FILE.yaml [--set section.key=value ...] --output DIR [--resume]
+       dfo_train --config FILE.yaml --output DIR --export [--model FILE]
+       dfo_train --config FILE.yaml --output DIR --write-depth OUT_DIR --sequence SEQ_DIR
+
+Trains the depth and feature networks self-supervised (3-frame snippets, poses from the
+differentiable feature-metric Gauss-Newton, clamped DSSIM + L1 appearance loss, edge-aware
+smoothness, mask sparsity, autoencoder stage first) on the sequences of data.sequences, and writes
+into DIR:
+  checkpoint.pt          weights, Adam state, iteration and loss history (every
+                         train.checkpoint_every iterations, at the end and on SIGINT / SIGTERM)
+  losses.csv, losses.png loss curves
+  config_effective.yaml  every key with its value (rerun with --config on it)
+  model.dfo              the final model (dfo model file, for dfo_run's learned frontend)
+
+options:
+  --config FILE        training configuration (configs/train_default.yaml lists every key)
+  --set KEY=VALUE      override one key (repeatable; later wins)
+  --output DIR         output folder (required)
+  --resume             continue from DIR/checkpoint.pt (required when it exists: a finished or
+                       stopped run is never overwritten by accident)
+  --export             write the model file from DIR/checkpoint.pt without training
+  --model FILE         model file name for --export and the end of training (default
+                       DIR/model.dfo)
+  --write-depth OUT    predict the depth of every frame of --sequence with DIR/checkpoint.pt and
+                       write 16-bit PNGs (metres * 256, the sequence's native size, image file
+                       names) into OUT, for `dfo_eval depth --gt SEQ/depth_0 --pred OUT`
+  --sequence SEQ_DIR   KITTI-layout sequence folder for --write-depth
+  --print-config       print the effective configuration and exit
+  --help               this text
+
+Speed on a 2-core CPU: export GLIBC_TUNABLES=glibc.malloc.mmap_max=0:glibc.malloc.trim_threshold=68719476736
+before starting (stops large buffers being returned to the OS each step; ~1.6x with channels_last),
+and OMP_WAIT_POLICY=PASSIVE when other processes share the cores.
+)";
+
+class UsageError : public Error {
+ public:
+  using Error::Error;
+};
+
+struct Args {
+  std::string config_path;
+  std::vector<std::string> overrides;
+  std::string output_dir;
+  std::string model_path;
+  std::string write_depth_dir;
+  std::string sequence_dir;
+  bool resume = false;
+  bool export_model = false;
+  bool print_config = false;
+  bool help = false;
+};
+
+Args ParseArgs(int argc, char** argv) {
+  Args args;
+  for (int i = 1; i < argc; ++i) {
+    std::string flag = argv[i], value;
+    bool has_value = false;
+    const size_t eq = flag.find('=');
+    if (flag.rfind("--", 0) == 0 && eq != std::string::npos) {
+      value = flag.substr(eq + 1);
+      flag = flag.substr(0, eq);
+      has_value = true;
+    }
+    if (flag == "--help" || flag == "-h") {
+      args.help = true;
+      continue;
+    }
+    if (flag == "--resume" || flag == "--export" || flag == "--print-config") {
+      if (has_value) throw UsageError(flag + " takes no value");
+      (flag == "--resume" ? args.resume : flag == "--export" ? args.export_model
+                                                              : args.print_config) = true;
+      continue;
+    }
+    if (flag != "--config" && flag != "--set" && flag != "--output" && flag != "--model" &&
+        flag != "--write-depth" && flag != "--sequence") {
+      throw UsageError("unknown argument '" + std::string(argv[i]) + "'");
+    }
+    if (!has_value) {
+      if (i + 1 >= argc) throw UsageError(flag + " needs a value");
+      value = argv[++i];
+    }
+    if (value.empty()) throw UsageError(flag + " needs a non-empty value");
+    if (flag == "--config") args.config_path = value;
+    if (flag == "--set") args.overrides.push_back(value);
+    if (flag == "--output") args.output_dir = value;
+    if (flag == "--model") args.model_path = value;
+    if (flag == "--write-depth") args.write_depth_dir = value;
+    if (flag == "--sequence") args.sequence_dir = value;
+  }
+  return args;
+}
+
+std::atomic<bool> g_stop(false);
+extern "C" void OnSignal(int) { g_stop = true; }
+
+learned::TrainingOptions OptionsFromConfig(const io::Config& c) {
+  learned::TrainingOptions o;
+  learned::NetworkOptions& n = o.network;
+  n.input_width = c.GetInt("network.input_width");
+  n.input_height = c.GetInt("network.input_height");
+  n.num_levels = c.GetInt("network.num_levels");
+  n.channels = c.GetIntList("network.channels");
+  n.patch_sizes = c.GetIntList("network.patch_sizes");
+  n.rho = c.GetDoubleList("network.rho");
+  n.input_mean = c.GetDoubleList("network.input_mean");
+  n.input_std = c.GetDoubleList("network.input_std");
+  n.depth_encoder_widths = c.GetIntList("network.depth_encoder_widths");
+  n.depth_decoder_widths = c.GetIntList("network.depth_decoder_widths");
+  n.feature_encoder_widths = c.GetIntList("network.feature_encoder_widths");
+  n.feature_decoder_widths = c.GetIntList("network.feature_decoder_widths");
+  n.reconstruction_width = c.GetInt("network.reconstruction_width");
+  o.loss.ssim_weight = c.GetDouble("loss.ssim_weight");
+  o.loss.dssim_clamp = c.GetDouble("loss.dssim_clamp");
+  o.loss.l1_clamp = c.GetDouble("loss.l1_clamp");
+  o.loss.smooth_weight = c.GetDouble("loss.smooth_weight");
+  o.loss.sparsity_weight = c.GetDouble("loss.sparsity_weight");
+  o.loss.ae_weight = c.GetDouble("loss.ae_weight");
+  o.loss.depth_mean_m = c.GetDouble("loss.depth_mean_m");
+  o.loss.depth_prior_weight = c.GetDouble("loss.depth_prior_weight");
+  o.augment.enabled = c.GetBool("augment.enabled");
+  o.augment.max_scale = c.GetDouble("augment.max_scale");
+  o.augment.color_probability = c.GetDouble("augment.color_probability");
+  o.augment.color_min = c.GetDouble("augment.color_min");
+  o.augment.color_max = c.GetDouble("augment.color_max");
+  o.gn.num_levels = n.num_levels;
+  o.gn.patch_size = n.patch_sizes.empty() ? 3 : n.patch_sizes[0];
+  o.gn.max_points = c.GetInt("gn.max_points");
+  o.gn.max_iterations = c.GetIntList("gn.max_iterations");
+  o.gn.min_gradient = c.GetDouble("gn.min_gradient");
+  o.gn.outlier_rule = c.GetBool("gn.outlier_rule");
+  o.gn_use_masks = c.GetBool("gn.use_masks");
+  o.source_feature_grad = c.GetBool("gn.source_feature_grad");
+  o.batch_size = c.GetInt("train.batch_size");
+  o.static_threshold = c.GetDouble("train.static_threshold");
+  o.ae_iterations = c.GetInt("train.ae_iterations");
+  o.iterations = c.GetInt("train.iterations");
+  o.learning_rate = c.GetDouble("train.learning_rate");
+  o.final_learning_rate = c.GetDouble("train.final_learning_rate");
+  o.max_grad_norm = c.GetDouble("train.max_grad_norm");
+  o.temperature_start = c.GetDouble("train.temperature_start");
+  o.temperature_end = c.GetDouble("train.temperature_end");
+  o.seed = static_cast<uint64_t>(c.GetInt64("train.seed"));
+  o.threads = c.GetInt("train.threads");
+  o.channels_last = c.GetBool("train.channels_last");
+  o.checkpoint_every = c.GetInt("train.checkpoint_every");
+  o.Check();
+  return o;
+}
+
+// Opens a KITTI-layout sequence folder at the training size, RGB.
+io::Sequence OpenTrainingSequence(const std::string& folder, int width, int height) {
+  io::DatasetOptions d;
+  d.type = "kitti";
+  d.path = folder;
+  d.image_width = width;
+  d.image_height = height;
+  d.color = true;
+  return io::OpenSequence(d);
+}
+
+ImageU8 ToRgb(ImageU8 image) {
+  if (image.channels() == 3) return image;
+  ImageU8 rgb(image.width(), image.height(), 3);
+  for (int y = 0; y < image.height(); ++y) {
+    for (int x = 0; x < image.width(); ++x) {
+      for (int c = 0; c < 3; ++c) rgb(x, y, c) = image(x, y);
+    }
+  }
+  return rgb;
+}
+
+std::vector<learned::TrainingSequence> LoadData(const io::Config& config,
+                                                const learned::TrainingOptions& options) {
+  const std::vector<std::string> folders = config.GetStringList("data.sequences");
+  if (folders.empty()) {
+    throw ConfigError(
+        "data.sequences is empty: name at least one KITTI-layout sequence folder (e.g. "
+        "--set 'data.sequences=[out/train_data/seq101]')");
+  }
+  const int max_frames = config.GetInt("data.max_frames");
+  std::vector<learned::TrainingSequence> data;
+  for (const std::string& folder : folders) {
+    const io::Sequence seq =
+        OpenTrainingSequence(folder, options.network.input_width, options.network.input_height);
+    learned::TrainingSequence t;
+    t.name = folder;
+    t.camera = seq.camera();
+    const size_t n = max_frames < 0 ? seq.size()
+                                    : std::min(seq.size(), static_cast<size_t>(max_frames));
+    for (size_t i = 0; i < n; ++i) t.images.push_back(ToRgb(seq.LoadImage(i)));
+    std::cout << "dfo_train: " << folder << ": " << n << " frames at " << t.camera.width << "x"
+              << t.camera.height << "\n";
+    data.push_back(std::move(t));
+  }
+  return data;
+}
+
+std::string FormatDuration(double s) {
+  char buf[32];
+  if (!(s >= 0.0) || s > 1e7) return "?";
+  const int total = static_cast<int>(s);
+  if (total >= 3600) {
+    std::snprintf(buf, sizeof(buf), "%dh%02dm", total / 3600, (total % 3600) / 60);
+  } else if (total >= 60) {
+    std::snprintf(buf, sizeof(buf), "%dm%02ds", total / 60, total % 60);
+  } else {
+    std::snprintf(buf, sizeof(buf), "%ds", total);
+  }
+  return buf;
+}
+
+void WriteCurves(const std::string& dir, const std::vector<learned::StepRecord>& history) {
+  learned::WriteHistoryCsv(dir + "/losses.csv", history);
+  if (history.empty()) return;
+  io::CurveSeries total{"total", {}, {}}, ap{"appearance", {}, {}}, sm{"smoothness x lambda", {}, {}},
+      ae{"reconstruction", {}, {}};
+  for (const learned::StepRecord& r : history) {
+    total.x.push_back(r.iteration);
+    total.y.push_back(r.total);
+    if (r.stage == "joint") {
+      ap.x.push_back(r.iteration);
+      ap.y.push_back(r.appearance);
+      sm.x.push_back(r.iteration);
+      sm.y.push_back(r.smoothness * 0.1);
+    }
+    ae.x.push_back(r.iteration);
+    ae.y.push_back(r.reconstruction);
+  }
+  io::CurvePlotOptions plot;
+  plot.title = "dfo_train losses";
+  plot.log_y = true;
+  plot.smooth_window = std::max<int>(1, static_cast<int>(history.size() / 50));
+  std::vector<io::CurveSeries> series = {total, ae};
+  if (!ap.x.empty()) {
+    series.push_back(ap);
+    series.push_back(sm);
+  }
+  io::WriteCurvePlot(dir + "/losses.png", series, plot);
+}
+
+std::string Notes(const Args& args, const learned::Trainer& trainer) {
+  std::ostringstream s;
+  s << "dfo_train, " << trainer.iteration() << " iterations; config " << args.config_path;
+  for (const std::string& o : args.overrides) s << " --set " << o;
+  return s.str();
+}
+
+// Depth PNGs of every frame of a sequence (predicted at the training size, resized bilinearly to
+// the sequence's native size).
+void WriteDepth(learned::Trainer& trainer, const Args& args) {
+  const learned::TrainingOptions& o = trainer.options();
+  const io::Sequence seq =
+      OpenTrainingSequence(args.sequence_dir, o.network.input_width, o.network.input_height);
+  const PinholeCamera native = seq.native_camera();
+  std::filesystem::create_directories(args.write_depth_dir);
+  for (size_t i = 0; i < seq.size(); ++i) {
+    const torch::Tensor image = learned::ImageToTensor(ToRgb(seq.LoadImage(i)));
+    torch::Tensor depth = trainer.PredictDepth(image)[0];
+    depth = torch::nn::functional::interpolate(
+                depth, torch::nn::functional::InterpolateFuncOptions()
+                           .size(std::vector<int64_t>{native.height, native.width})
+                           .mode(torch::kBilinear)
+                           .align_corners(false))
+                .squeeze()
+                .contiguous();
+    ImageF out(native.width, native.height, 1);
+    std::copy(depth.data_ptr<float>(), depth.data_ptr<float>() + depth.numel(), out.data());
+    const std::string name = std::filesystem::path(seq.frame(i).image_path).filename().string();
+    io::WriteDepthPng(args.write_depth_dir + "/" + name, out, 256.0);
+  }
+  std::cout << "dfo_train: wrote " << seq.size() << " depth maps to " << args.write_depth_dir
+            << "\n";
+}
+
+int Run(const Args& args) {
+  const io::Config config = io::LoadConfig(args.config_path, io::TrainSchema(), args.overrides);
+  if (args.print_config) {
+    std::cout << config.ToYaml();
+    return 0;
+  }
+  if (args.output_dir.empty()) throw UsageError("--output DIR is required");
+  const learned::TrainingOptions options = OptionsFromConfig(config);
+  const std::string dir = args.output_dir;
+  const std::string checkpoint = dir + "/checkpoint.pt";
+  const std::string model_path = args.model_path.empty() ? dir + "/model.dfo" : args.model_path;
+  const bool have_checkpoint = std::filesystem::exists(checkpoint);
+  const bool inference_only = args.export_model || !args.write_depth_dir.empty();
+  if (!args.write_depth_dir.empty() && args.sequence_dir.empty()) {
+    throw UsageError("--write-depth needs --sequence SEQ_DIR");
+  }
+  if (inference_only && !have_checkpoint) {
+    throw InputError("no checkpoint " + checkpoint + " to export or predict with");
+  }
+  if (!inference_only && have_checkpoint && !args.resume) {
+    throw UsageError(checkpoint +
+                     " exists: pass --resume to continue that run, or choose another --output");
+  }
+
+  // Inference modes do not need the training data: one synthetic-free stand-in snippet.
+  std::vector<learned::TrainingSequence> data;
+  if (inference_only) {
+    learned::TrainingSequence stand_in;
+    stand_in.name = "stand-in";
+    stand_in.camera = PinholeCamera(100, 100, options.network.input_width / 2.0,
+                                    options.network.input_height / 2.0,
+                                    options.network.input_width, options.network.input_height);
+    for (int i = 0; i < 3; ++i) {
+      ImageU8 im(options.network.input_width, options.network.input_height, 3);
+      std::fill(im.data(), im.data() + static_cast<size_t>(im.width()) * im.height() * 3,
+                static_cast<uint8_t>(i * 100));
+      stand_in.images.push_back(im);
+    }
+    data.push_back(stand_in);
+  } else {
+    data = LoadData(config, options);
+  }
+  learned::TrainingOptions effective = options;
+  if (inference_only) effective.static_threshold = 0.0;
+  learned::Trainer trainer(effective, std::move(data));
+  if (have_checkpoint) {
+    trainer.LoadCheckpoint(checkpoint);
+  } else if (!config.GetString("train.init_checkpoint").empty()) {
+    trainer.LoadWeights(config.GetString("train.init_checkpoint"));
+    std::cout << "dfo_train: initial weights from " << config.GetString("train.init_checkpoint")
+              << "\n";
+  }
+  if (args.export_model) {
+    learned::SaveModel(model_path, *trainer.networks(), Notes(args, trainer));
+    std::cout << "dfo_train: wrote " << model_path << " (iteration " << trainer.iteration()
+              << ")\n";
+    return 0;
+  }
+  if (!args.write_depth_dir.empty()) {
+    WriteDepth(trainer, args);
+    return 0;
+  }
+
+  std::filesystem::create_directories(dir);
+  config.WriteYaml(dir + "/config_effective.yaml");
+  std::cout << "dfo_train: " << trainer.snippets().size() << " snippets, "
+            << learned::NumParameters(*trainer.networks()->depth) << " depth + "
+            << learned::NumParameters(*trainer.networks()->feature)
+            << " feature parameters, training " << options.network.input_width << "x"
+            << options.network.input_height << ", batch " << options.batch_size << ", "
+            << options.threads << " thread(s)";
+  if (trainer.iteration() > 0) std::cout << ", resuming at iteration " << trainer.iteration();
+  std::cout << "\n";
+
+  std::signal(SIGINT, OnSignal);
+  std::signal(SIGTERM, OnSignal);
+  const std::string mode = config.GetString("train.progress");
+  const bool terminal = mode == "terminal" || (mode == "auto" && isatty(fileno(stdout)));
+  const bool quiet = mode == "none";
+  const double interval = terminal ? 0.2 : config.GetDouble("train.progress_interval_s");
+  const auto start = std::chrono::steady_clock::now();
+  const int start_iteration = trainer.iteration();
+  double last_print = -1e9;
+  auto line = [&](const learned::StepRecord& r) {
+    const double elapsed =
+        std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+    const double rate = (r.iteration - start_iteration) / std::max(elapsed, 1e-9);
+    char buf[320];
+    std::snprintf(buf, sizeof(buf),
+                  "dfo_train: it %d/%d (%.1f%%) %s  loss %.4f (ap %.4f sm %.4f sp %.4f ae %.4f)  "
+                  "gn ok %.0f%%  depth %.1f m  %.2f it/s  ETA %s",
+                  r.iteration, options.iterations, 100.0 * r.iteration / options.iterations,
+                  r.stage.c_str(), r.total, r.appearance, r.smoothness, r.sparsity,
+                  r.reconstruction, 100.0 * r.gn_ok_ratio, r.mean_depth, rate,
+                  FormatDuration((options.iterations - r.iteration) / std::max(rate, 1e-9))
+                      .c_str());
+    return std::string(buf);
+  };
+  learned::StepRecord last;
+  trainer.Run(&g_stop, checkpoint, [&](const learned::StepRecord& r) {
+    last = r;
+    if (r.iteration % options.checkpoint_every == 0) WriteCurves(dir, trainer.history());
+    if (quiet) return;
+    const double now =
+        std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+    if (now - last_print < interval && r.iteration != options.iterations) return;
+    last_print = now;
+    if (terminal) {
+      std::cout << "\r" << line(r) << "\033[K" << std::flush;
+    } else {
+      std::cout << line(r) << std::endl;
+    }
+  });
+  if (terminal && !quiet) std::cout << "\n";
+  WriteCurves(dir, trainer.history());
+  if (g_stop) {
+    std::cout << "dfo_train: stopped at iteration " << trainer.iteration() << "; checkpoint "
+              << checkpoint << " (continue with --resume)\n";
+    return 0;
+  }
+  learned::SaveModel(model_path, *trainer.networks(), Notes(args, trainer));
+  std::cout << "dfo_train: finished " << trainer.iteration() << " iterations; wrote "
+            << model_path << ", " << dir << "/losses.csv, " << dir << "/losses.png\n";
+  return 0;
+}
+
+}  // namespace
+}  // namespace dfo
+
+int main(int argc, char** argv) {
+  try {
+    const dfo::Args args = dfo::ParseArgs(argc, argv);
+    if (args.help) {
+      std::cout << dfo::kUsage;
+      return 0;
+    }
+    return dfo::Run(args);
+  } catch (const dfo::UsageError& e) {
+    std::cerr << "dfo_train: error: " << e.what() << " (see dfo_train --help)\n";
+    return 2;
+  } catch (const std::exception& e) {
+    std::cerr << "dfo_train: error: " << e.what() << "\n";
+    return 1;
+  }
+}
