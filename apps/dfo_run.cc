@@ -1,5 +1,7 @@
-// dfo_run: runs the frontend over a whole sequence and writes trajectories, the effective
-// configuration, a summary with the evaluation against ground truth and a trajectory plot.
+// dfo_run: runs the frontend over a whole sequence, decides keyframes, optimises them in the
+// sliding window, and writes the frontend-only and windowed trajectories (both from the same
+// frontend outputs), the effective configuration, a summary with the evaluation of both against
+// ground truth, a side-by-side table and trajectory plots.
 //
 //   dfo_run --config FILE.yaml [--set section.key=value ...] [--output DIR]
 //
@@ -14,6 +16,7 @@
 #include <string>
 #include <vector>
 
+#include "apps/common/backend_config.h"
 #include "apps/common/evaluation.h"
 #include "apps/common/frontend_config.h"
 #include "apps/common/progress.h"
@@ -31,15 +34,25 @@ namespace {
 constexpr const char* kUsage =
     R"(usage: dfo_run --config FILE.yaml [--set section.key=value ...] [--output DIR]
 
-Runs dfo's frontend (direct feature-metric tracking against a reference frame) over the sequence
-named in the configuration's `dataset` section and writes into the output folder:
-  frontend_kitti.txt      pose of every frame, KITTI format (camera-to-world, 12 numbers a line)
+Runs dfo over the sequence named in the configuration's `dataset` section: the frontend (direct
+feature-metric tracking against the newest keyframe), the keyframe manager (section keyframe)
+and, unless run.mode = frontend, the sliding-window feature-metric bundle adjustment (sections
+window, backend). Both trajectories come from the same frontend outputs. Writes into the output
+folder:
+  frontend_kitti.txt      frontend-only pose of every frame, KITTI format (camera-to-world, 12
+                          numbers a line); run.mode frontend or both
   frontend_tum.txt        the same with timestamps, TUM format
+  windowed_kitti.txt      windowed (bundle-adjusted) pose of every frame; run.mode windowed or both
+  windowed_tum.txt        the same, TUM format
+  keyframes_tum.txt       the keyframes' poses, TUM format
   config_effective.yaml   every configuration key with its value (rerun with --config on it)
-  summary.json            frames, frames_lost, frontend (evaluation, Sim3-aligned, as
-                          `dfo_eval traj --json`, plus ate_rmse_se3), timing_ms, fps, peak_rss_mb
-  frames.csv              per frame: status, inliers, RMSE, stage times
-  frontend_trajectory.png top view against ground truth, coloured by ATE (when there is one)
+  summary.json            frames, frames_lost, frontend and windowed (evaluation, Sim3-aligned, as
+                          `dfo_eval traj --json`, plus ate_rmse_se3), keyframes, timing_ms (with
+                          backend_per_keyframe), fps, peak_rss_mb
+  frames.csv              per frame: status, inliers, RMSE, keyframe and reason, stage times
+  *_trajectory.png        top views against ground truth (when there is one): frontend and
+                          windowed coloured by ATE, comparison = both estimates in one picture
+The terminal ends with a side-by-side table of ATE (Sim3, SE3), RPE and snippet ATE.
 
 options:
   --config FILE       YAML configuration (configs/default.yaml lists every key); without it
@@ -107,13 +120,91 @@ Args ParseArgs(int argc, char** argv) {
   return args;
 }
 
+// The keyframe line and the side-by-side table of both trajectories' figures.
+void PrintComparison(const apps::SequenceRunResult& result, const apps::RunOutputs& outputs) {
+  const io::JsonValue& k = outputs.summary["keyframes"];
+  std::cout << "keyframes:   " << result.keyframes.size() << " (";
+  bool first = true;
+  for (const auto& [reason, count] : k["reasons"].members()) {
+    std::cout << (first ? "" : ", ") << reason << " " << count.AsInt();
+    first = false;
+  }
+  std::cout << ")";
+  if (result.has_windowed()) {
+    std::cout << "; window: " << k["ba_optimized"].AsInt() << " solves kept, "
+              << k["ba_failed"].AsInt() << " not, " << k["marginalized"].AsInt()
+              << " keyframes marginalised, at most " << k["max_points"].AsInt() << " points / "
+              << k["max_residual_blocks"].AsInt() << " residual blocks";
+  }
+  std::cout << "\n";
+
+  struct Column {
+    const char* name;
+    const apps::RunEvaluation* evaluation;
+  };
+  std::vector<Column> columns;
+  if (result.has_frontend()) columns.push_back({"frontend-only", &outputs.evaluation});
+  if (result.has_windowed()) columns.push_back({"windowed", &outputs.windowed_evaluation});
+  for (const Column& c : columns) {
+    if (!c.evaluation->available) {
+      std::cout << "evaluation:  " << c.name << ": none (" << c.evaluation->note << ")\n";
+    }
+  }
+  if (columns.empty() || !columns.front().evaluation->available) return;
+  for (const Column& c : columns) {
+    if (!c.evaluation->available) return;
+  }
+  const auto row = [&](const char* label, auto value, int decimals) {
+    std::printf("  %-28s", label);
+    for (const Column& c : columns) {
+      std::printf(" %14s", apps::FormatFixed(value(*c.evaluation), decimals).c_str());
+    }
+    std::printf("\n");
+  };
+  std::cout.flush();
+  std::printf("  %-28s", "");
+  for (const Column& c : columns) std::printf(" %14s", c.name);
+  std::printf("\n");
+  const double path = columns.front().evaluation->sim3.gt_path_length_m;
+  row("ATE Sim3 rmse [m]", [](const apps::RunEvaluation& e) { return e.sim3.ate.stats.rmse; }, 4);
+  row("ATE Sim3 [% of path]",
+      [&](const apps::RunEvaluation& e) { return path > 0 ? 100.0 * e.sim3.ate.stats.rmse / path : 0.0; },
+      3);
+  row("ATE SE3 rmse [m]", [](const apps::RunEvaluation& e) { return e.ate_rmse_se3; }, 4);
+  row("Sim3 scale", [](const apps::RunEvaluation& e) { return e.sim3.alignment.transform.scale; },
+      4);
+  row("RPE rmse [m/frame]",
+      [](const apps::RunEvaluation& e) { return e.sim3.rpe.translation.rmse; }, 4);
+  row("RPE rmse [deg/frame]",
+      [](const apps::RunEvaluation& e) { return e.sim3.rpe.rotation_deg.rmse; }, 4);
+  row("snippet ATE (5 frames) [m]", [](const apps::RunEvaluation& e) { return e.sim3.snippet.mean; },
+      4);
+  if (columns.front().evaluation->sim3.kitti.num_segments > 0) {
+    row("KITTI t_rel [%]", [](const apps::RunEvaluation& e) { return e.sim3.kitti.t_rel_pct; }, 2);
+    row("KITTI r_rel [deg/100m]",
+        [](const apps::RunEvaluation& e) { return e.sim3.kitti.r_rel_deg_per_100m; }, 3);
+  }
+  std::fflush(stdout);
+}
+
 int Run(const Args& args) {
   const io::Config config = io::LoadConfig(args.config_path, io::DfoSchema(), args.overrides);
   if (args.print_config) {
     std::cout << config.ToYaml();
     return 0;
   }
-  const FrontendOptions frontend_options = apps::FrontendOptionsFromConfig(config);
+  FrontendOptions frontend_options = apps::FrontendOptionsFromConfig(config);
+  // keyframe.decided_by = manager: the keyframe manager switches the tracker's reference.
+  frontend_options.reference.policy = apps::ReferencePolicyFromConfig(config);
+  const apps::RunMode mode = apps::RunModeFromConfig(config);
+  const KeyframeOptions keyframe_options = apps::KeyframeOptionsFromConfig(config);
+  const WindowOptions window_options = apps::WindowOptionsFromConfig(config);
+  if (mode != apps::RunMode::kFrontend &&
+      window_options.pyramid_level >= frontend_options.tracker.num_levels) {
+    throw ConfigError("window.pyramid_level = " + std::to_string(window_options.pyramid_level) +
+                      " violates < tracker.num_levels (" +
+                      std::to_string(frontend_options.tracker.num_levels) + ")");
+  }
   io::DatasetOptions dataset = io::DatasetOptionsFromConfig(config);
   if (dataset.path.empty()) {
     throw ConfigError(
@@ -142,7 +233,11 @@ int Run(const Args& args) {
   std::cout << "dfo_run: " << sequence.name() << ", " << sequence.size() << " frames of "
             << sequence.output_width() << "x" << sequence.output_height() << ", features "
             << frontend_options.features << ", depth " << frontend_options.depth << ", "
-            << frontend_options.tracker.num_levels << " levels -> " << output_dir << "\n";
+            << frontend_options.tracker.num_levels << " levels, mode " << apps::RunModeName(mode)
+            << ", keyframes by "
+            << (frontend_options.reference.policy == "external" ? "the keyframe manager"
+                                                                : "the frontend")
+            << " -> " << output_dir << "\n";
   for (const auto& key : config.schema().keys()) {
     if (!config.IsDefault(key.path)) {
       std::cout << "  " << key.path << " = " << io::FormatConfigValue(config.Get(key.path)) << "  ("
@@ -157,6 +252,10 @@ int Run(const Args& args) {
   run_options.progress = apps::ParseProgressMode(config.GetString("run.progress"));
   run_options.progress_interval_s = config.GetDouble("run.progress_interval_s");
   run_options.progress_stream = stdout;
+  run_options.mode = mode;
+  run_options.keyframe = keyframe_options;
+  run_options.window = window_options;
+  run_options.log_stream = stderr;
   const apps::SequenceRunResult result = apps::RunSequence(provider, &frontend, run_options);
   const apps::RunOutputs outputs =
       apps::WriteRunOutputs(result, output_dir, config.GetBool("run.plot"));
@@ -165,35 +264,26 @@ int Run(const Args& args) {
   std::cout << "frames:      " << result.frames.size() << " of " << result.frames_in_sequence
             << " processed, " << lost << " lost, " << result.CountStatus(TrackingStatus::kDegraded)
             << " degraded\n";
-  if (outputs.evaluation.available) {
-    const apps::TrajectoryEvaluation& e = outputs.evaluation.sim3;
-    const double pct = e.gt_path_length_m > 0 ? 100.0 * e.ate.stats.rmse / e.gt_path_length_m
-                                              : std::numeric_limits<double>::quiet_NaN();
-    std::cout << "ATE (sim3):  rmse " << apps::FormatFixed(e.ate.stats.rmse, 4)
-              << " m = " << apps::FormatFixed(pct, 3) << " % of the "
-              << apps::FormatFixed(e.gt_path_length_m, 1) << " m path (scale "
-              << apps::FormatFixed(e.alignment.transform.scale, 4) << ");  se3 alignment: rmse "
-              << apps::FormatFixed(outputs.evaluation.ate_rmse_se3, 4) << " m\n";
-    std::cout << "RPE:         " << apps::FormatFixed(e.rpe.translation.rmse, 4) << " m, "
-              << apps::FormatFixed(e.rpe.rotation_deg.rmse, 4) << " deg per frame (rmse)";
-    if (e.kitti.num_segments > 0) {
-      std::cout << ";  KITTI t_rel " << apps::FormatFixed(e.kitti.t_rel_pct, 2) << " %, r_rel "
-                << apps::FormatFixed(e.kitti.r_rel_deg_per_100m, 3) << " deg/100m";
-    }
-    std::cout << "\n";
-  } else {
-    std::cout << "evaluation:  none (" << outputs.evaluation.note << ")\n";
-  }
+  PrintComparison(result, outputs);
   std::vector<double> total_ms, tracking_ms;
   for (const apps::FrameRecord& f : result.frames) {
     total_ms.push_back(f.total_ms);
     tracking_ms.push_back(f.tracking_ms);
   }
+  std::vector<double> backend_ms;
+  for (const apps::KeyframeRecord& k : result.keyframes) {
+    if (k.ba_ran) backend_ms.push_back(k.backend_ms);
+  }
   const double fps = result.wall_s > 0 ? result.frames.size() / result.wall_s : 0.0;
   std::cout << "speed:       " << apps::FormatFixed(fps, 1) << " frames/s; per frame median "
             << apps::FormatFixed(apps::Percentile(total_ms, 50), 2) << " ms (tracking "
             << apps::FormatFixed(apps::Percentile(tracking_ms, 50), 2) << " ms, p95 "
-            << apps::FormatFixed(apps::Percentile(tracking_ms, 95), 2) << " ms)\n";
+            << apps::FormatFixed(apps::Percentile(tracking_ms, 95), 2) << " ms)";
+  if (!backend_ms.empty()) {
+    std::cout << "; window per keyframe median " << apps::FormatFixed(apps::Percentile(backend_ms, 50), 1)
+              << " ms, p95 " << apps::FormatFixed(apps::Percentile(backend_ms, 95), 1) << " ms";
+  }
+  std::cout << "\n";
   std::cout << "written:     " << config_path;
   for (const std::string& f : outputs.files) std::cout << "\n             " << f;
   std::cout << "\n";

@@ -67,34 +67,33 @@ std::array<cv::Vec3b, 256> ColourTable() {
   return table;
 }
 
-}  // namespace
-
-void TrajectoryPlotOptions::Check() const {
-  if (width < 400) throw ConfigError("plot.width = " + std::to_string(width) + " violates >= 400");
-  if (height < 300) {
-    throw ConfigError("plot.height = " + std::to_string(height) + " violates >= 300");
+// The canvas of a top-view plot: header lines, equal-scale plot area around every point of
+// `paths`, grid, ticks and axis names; `to_pixel` maps a position to (sub-pixel) image
+// coordinates. `right_margin` leaves room for a colour bar.
+struct Canvas {
+  cv::Mat img;
+  cv::Rect area;
+  int h_axis = 0, v_axis = 2;
+  double scale = 1.0, centre_h = 0.0, centre_v = 0.0, area_cx = 0.0, area_cy = 0.0;
+  cv::Point2d to_pixel(const Eigen::Vector3d& p) const {
+    return cv::Point2d(area_cx + (p[h_axis] - centre_h) * scale,
+                       area_cy - (p[v_axis] - centre_v) * scale);  // up is +v
   }
+};
+
+constexpr int kShift = 4;  // sub-pixel drawing precision (1/16 px)
+cv::Point Fixed(const cv::Point2d& p) {
+  return cv::Point(static_cast<int>(std::lround(p.x * (1 << kShift))),
+                   static_cast<int>(std::lround(p.y * (1 << kShift))));
 }
 
-void WriteTrajectoryPlot(const std::string& path, const Trajectory& ground_truth,
-                         const Trajectory& estimate, const std::vector<double>& errors,
-                         const TrajectoryPlotOptions& options) {
-  options.Check();
-  if (!errors.empty() && errors.size() != estimate.size()) {
-    throw InputError("trajectory plot " + path + ": " + std::to_string(errors.size()) +
-                     " errors for " + std::to_string(estimate.size()) +
-                     " estimated poses, expected one per pose");
-  }
-  const std::vector<Eigen::Vector3d> gt = ground_truth.Positions();
-  const std::vector<Eigen::Vector3d> est = estimate.Positions();
-  if (gt.empty() && est.empty()) {
-    throw InputError("trajectory plot " + path + ": both trajectories are empty");
-  }
-
+Canvas DrawCanvas(const std::vector<const std::vector<Eigen::Vector3d>*>& paths,
+                  const TrajectoryPlotOptions& options, int right_margin) {
+  Canvas c;
   // Extents per axis over both paths.
   Eigen::Vector3d lo = Eigen::Vector3d::Constant(std::numeric_limits<double>::infinity());
   Eigen::Vector3d hi = -lo;
-  for (const auto* points : {&gt, &est}) {
+  for (const auto* points : paths) {
     for (const auto& p : *points) {
       lo = lo.cwiseMin(p);
       hi = hi.cwiseMax(p);
@@ -102,7 +101,8 @@ void WriteTrajectoryPlot(const std::string& path, const Trajectory& ground_truth
   }
   const Eigen::Vector3d extent = hi - lo;
   // x-z (KITTI ground plane) unless the path climbs more than it spans in x or z.
-  int h_axis = 0, v_axis = 2;
+  int& h_axis = c.h_axis;
+  int& v_axis = c.v_axis;
   if (extent.y() > std::min(extent.x(), extent.z())) {
     int smallest = 0;
     for (int a = 1; a < 3; ++a) {
@@ -113,7 +113,8 @@ void WriteTrajectoryPlot(const std::string& path, const Trajectory& ground_truth
   }
   const char* kAxisNames[3] = {"x", "y", "z"};
 
-  cv::Mat img(options.height, options.width, CV_8UC3, kWhite);
+  c.img = cv::Mat(options.height, options.width, CV_8UC3, kWhite);
+  cv::Mat& img = c.img;
   // Header: title and figure lines.
   int y_text = 32;
   Text(img, options.title, cv::Point(20, y_text), 0.8, kBlack, 2);
@@ -121,29 +122,22 @@ void WriteTrajectoryPlot(const std::string& path, const Trajectory& ground_truth
     y_text += 26;
     Text(img, line, cv::Point(20, y_text), 0.55, kAxisText);
   }
-  const bool coloured = !errors.empty();
   const int area_top = y_text + 44;
-  const cv::Rect area(90, area_top, options.width - 90 - (coloured ? 170 : 40),
-                      options.height - area_top - 60);
+  c.area = cv::Rect(90, area_top, options.width - 90 - right_margin,
+                    options.height - area_top - 60);
+  const cv::Rect& area = c.area;
 
   // Equal scale on both axes, data centred in the plot area with a 5% margin.
   double range_h = std::max(extent[h_axis], 1e-6) * 1.1;
   double range_v = std::max(extent[v_axis], 1e-6) * 1.1;
   if (extent[h_axis] < 1e-6 && extent[v_axis] < 1e-6) range_h = range_v = 1.0;
-  const double scale = std::min(area.width / range_h, area.height / range_v);
-  const double centre_h = 0.5 * (lo[h_axis] + hi[h_axis]);
-  const double centre_v = 0.5 * (lo[v_axis] + hi[v_axis]);
-  const double area_cx = area.x + 0.5 * area.width;
-  const double area_cy = area.y + 0.5 * area.height;
-  const auto to_pixel = [&](const Eigen::Vector3d& p) {
-    return cv::Point2d(area_cx + (p[h_axis] - centre_h) * scale,
-                       area_cy - (p[v_axis] - centre_v) * scale);  // up is +v
-  };
-  constexpr int kShift = 4;  // sub-pixel drawing precision (1/16 px)
-  const auto fixed = [&](const cv::Point2d& p) {
-    return cv::Point(static_cast<int>(std::lround(p.x * (1 << kShift))),
-                     static_cast<int>(std::lround(p.y * (1 << kShift))));
-  };
+  c.scale = std::min(area.width / range_h, area.height / range_v);
+  c.centre_h = 0.5 * (lo[h_axis] + hi[h_axis]);
+  c.centre_v = 0.5 * (lo[v_axis] + hi[v_axis]);
+  c.area_cx = area.x + 0.5 * area.width;
+  c.area_cy = area.y + 0.5 * area.height;
+  const double scale = c.scale, centre_h = c.centre_h, centre_v = c.centre_v;
+  const double area_cx = c.area_cx, area_cy = c.area_cy;
 
   // Grid, tick labels in metres, axis names.
   const double visible_h = area.width / scale, visible_v = area.height / scale;
@@ -170,6 +164,40 @@ void WriteTrajectoryPlot(const std::string& path, const Trajectory& ground_truth
        cv::Point(area.x + area.width / 2 - TextSize(h_label, 0.6).width / 2, area.br().y + 48), 0.6,
        kBlack);
   Text(img, v_label, cv::Point(12, area.y - 8), 0.6, kBlack);
+
+  return c;
+}
+
+}  // namespace
+
+void TrajectoryPlotOptions::Check() const {
+  if (width < 400) throw ConfigError("plot.width = " + std::to_string(width) + " violates >= 400");
+  if (height < 300) {
+    throw ConfigError("plot.height = " + std::to_string(height) + " violates >= 300");
+  }
+}
+
+void WriteTrajectoryPlot(const std::string& path, const Trajectory& ground_truth,
+                         const Trajectory& estimate, const std::vector<double>& errors,
+                         const TrajectoryPlotOptions& options) {
+  options.Check();
+  if (!errors.empty() && errors.size() != estimate.size()) {
+    throw InputError("trajectory plot " + path + ": " + std::to_string(errors.size()) +
+                     " errors for " + std::to_string(estimate.size()) +
+                     " estimated poses, expected one per pose");
+  }
+  const std::vector<Eigen::Vector3d> gt = ground_truth.Positions();
+  const std::vector<Eigen::Vector3d> est = estimate.Positions();
+  if (gt.empty() && est.empty()) {
+    throw InputError("trajectory plot " + path + ": both trajectories are empty");
+  }
+
+  const bool coloured = !errors.empty();
+  Canvas canvas = DrawCanvas({&gt, &est}, options, coloured ? 170 : 40);
+  cv::Mat& img = canvas.img;
+  const cv::Rect& area = canvas.area;
+  const auto to_pixel = [&](const Eigen::Vector3d& p) { return canvas.to_pixel(p); };
+  const auto fixed = [](const cv::Point2d& p) { return Fixed(p); };
 
   // Error colour range.
   double e_min = 0.0, e_max = 1.0;
@@ -234,6 +262,79 @@ void WriteTrajectoryPlot(const std::string& path, const Trajectory& ground_truth
       cv::line(img, cv::Point(bar.br().x, y), cv::Point(bar.br().x + 5, y), kAxisText, 1);
       Text(img, FormatValue(e), cv::Point(bar.br().x + 8, y + 5), 0.45, kAxisText);
     }
+  }
+
+  const auto parent = std::filesystem::path(path).parent_path();
+  std::error_code ec;
+  if (!parent.empty()) std::filesystem::create_directories(parent, ec);
+  bool ok = false;
+  try {
+    ok = cv::imwrite(path, img);
+  } catch (const cv::Exception& e) {
+    throw InputError("cannot write plot " + path + ": " + e.what());
+  }
+  if (!ok) throw InputError("cannot write plot " + path + " (folder not writable or not .png?)");
+}
+
+void WriteTrajectoriesPlot(const std::string& path, const Trajectory& ground_truth,
+                           const std::vector<LabelledTrajectory>& estimates,
+                           const TrajectoryPlotOptions& options) {
+  options.Check();
+  // BGR: blue, orange, green, purple, brown, pink (matplotlib's first colours).
+  const cv::Scalar kColours[6] = {{180, 119, 31}, {14, 127, 255}, {44, 160, 44},
+                                  {189, 103, 148}, {75, 86, 140}, {194, 119, 227}};
+  if (estimates.size() > 6) {
+    throw InputError("trajectory plot " + path + ": " + std::to_string(estimates.size()) +
+                     " estimates, at most 6 are drawn");
+  }
+  std::vector<std::vector<Eigen::Vector3d>> points;
+  points.push_back(ground_truth.Positions());
+  for (const LabelledTrajectory& e : estimates) points.push_back(e.trajectory.Positions());
+  std::vector<const std::vector<Eigen::Vector3d>*> paths;
+  bool any = false;
+  for (const auto& p : points) {
+    paths.push_back(&p);
+    any = any || !p.empty();
+  }
+  if (!any) throw InputError("trajectory plot " + path + ": every trajectory is empty");
+  Canvas canvas = DrawCanvas(paths, options, 40);
+  cv::Mat& img = canvas.img;
+  const auto draw = [&](const std::vector<Eigen::Vector3d>& p, const cv::Scalar& colour) {
+    for (size_t i = 1; i < p.size(); ++i) {
+      cv::line(img, Fixed(canvas.to_pixel(p[i - 1])), Fixed(canvas.to_pixel(p[i])), colour, 2,
+               cv::LINE_AA, kShift);
+    }
+  };
+  draw(points[0], kGroundTruth);
+  for (size_t k = 1; k < points.size(); ++k) draw(points[k], kColours[k - 1]);
+  const std::vector<Eigen::Vector3d>* first = &points[0];
+  for (const auto& p : points) {
+    if (first->empty()) first = &p;
+  }
+  const cv::Point2d start = canvas.to_pixel(first->front());
+  cv::circle(img, Fixed(start), 7 << kShift, kStart, cv::FILLED, cv::LINE_AA, kShift);
+  cv::circle(img, Fixed(start), 7 << kShift, kBlack, 1, cv::LINE_AA, kShift);
+  const cv::Point start_label(static_cast<int>(start.x) + 10, static_cast<int>(start.y) - 8);
+  Text(img, "start", start_label, 0.5, kWhite, 4);
+  Text(img, "start", start_label, 0.5, kStart, 1);
+
+  // Legend, top-left inside the plot area: one line per trajectory.
+  int legend_width = 0;
+  for (const LabelledTrajectory& e : estimates) {
+    legend_width = std::max(legend_width, TextSize(e.label, 0.5).width);
+  }
+  legend_width = std::max(legend_width, TextSize("ground truth", 0.5).width) + 80;
+  const cv::Rect legend(canvas.area.x + 10, canvas.area.y + 10, legend_width,
+                        14 + 22 * static_cast<int>(points.size()));
+  cv::rectangle(img, legend, kWhite, cv::FILLED);
+  cv::rectangle(img, legend, kGrid, 1);
+  for (size_t k = 0; k < points.size(); ++k) {
+    const int y = legend.y + 18 + 22 * static_cast<int>(k);
+    const cv::Scalar colour = k == 0 ? kGroundTruth : kColours[k - 1];
+    cv::line(img, cv::Point(legend.x + 10, y), cv::Point(legend.x + 50, y), colour, 2,
+             cv::LINE_AA);
+    Text(img, k == 0 ? std::string("ground truth") : estimates[k - 1].label,
+         cv::Point(legend.x + 60, y + 5), 0.5, kBlack);
   }
 
   const auto parent = std::filesystem::path(path).parent_path();

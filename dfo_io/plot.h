@@ -35,6 +35,21 @@ void WriteTrajectoryPlot(const std::string& path, const Trajectory& ground_truth
                          const Trajectory& estimate, const std::vector<double>& errors,
                          const TrajectoryPlotOptions& options = {});
 
+// One estimate of a multi-trajectory plot.
+struct LabelledTrajectory {
+  std::string label;      // legend text, e.g. "windowed (Sim3-aligned)"
+  Trajectory trajectory;  // world_from_cam, in the ground truth's world frame (aligned)
+};
+
+// Top view of a ground truth and several estimates, each in its own colour with a legend entry
+// (frontend-only against windowed in dfo_run). Same view, scale, grid and start marker as
+// WriteTrajectoryPlot; no error colouring. Up to 6 estimates. Creates missing parent folders.
+// Throws InputError when every trajectory is empty, there are more than 6 estimates, or the file
+// cannot be written; ConfigError on bad options.
+void WriteTrajectoriesPlot(const std::string& path, const Trajectory& ground_truth,
+                           const std::vector<LabelledTrajectory>& estimates,
+                           const TrajectoryPlotOptions& options = {});
+
 }  // namespace dfo::io
 
 #endif  // DFO_IO_PLOT_H_

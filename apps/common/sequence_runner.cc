@@ -7,6 +7,8 @@
 #include <filesystem>
 #include <fstream>
 #include <limits>
+#include <map>
+#include <memory>
 #include <utility>
 
 #include "apps/common/run_stats.h"
@@ -46,9 +48,15 @@ Frame ToFrame(io::LoadedFrame loaded) {
 }
 
 Trajectory SequenceRunResult::Estimate() const {
+  if (poses.num_frames() == static_cast<int>(frames.size())) return poses.FrontendTrajectory();
   Trajectory t;
   for (const FrameRecord& f : frames) t.Add(f.tracked.timestamp_ns, f.tracked.world_from_cam);
   return t;
+}
+
+Trajectory SequenceRunResult::WindowedEstimate() const {
+  if (poses.num_frames() == static_cast<int>(frames.size())) return poses.WindowedTrajectory();
+  return Estimate();
 }
 
 int SequenceRunResult::CountStatus(TrackingStatus status) const {
@@ -57,16 +65,144 @@ int SequenceRunResult::CountStatus(TrackingStatus status) const {
   return n;
 }
 
+namespace {
+
+bool IsFinitePose(const SE3d& pose) {
+  return pose.translation().allFinite() && pose.quaternion().coeffs().allFinite();
+}
+
+// Keyframe decisions, pose bookkeeping and the window for one run.
+class KeyframePipeline {
+ public:
+  KeyframePipeline(Frontend* frontend, const SequenceRunOptions& options,
+                   SequenceRunResult* result)
+      : frontend_(frontend),
+        options_(options),
+        result_(result),
+        manager_(options.keyframe),
+        external_(frontend->options().reference.policy == "external") {
+    if (options.mode != RunMode::kFrontend) {
+      if (options.window.pyramid_level >= frontend->options().tracker.num_levels) {
+        throw ConfigError("window.pyramid_level = " +
+                          std::to_string(options.window.pyramid_level) +
+                          " violates < tracker.num_levels (" +
+                          std::to_string(frontend->options().tracker.num_levels) + ")");
+      }
+      window_ = std::make_unique<WindowOptimizer>(options.window);
+    }
+  }
+
+  // Books the tracked frame, decides whether it becomes a keyframe, and runs the window on it.
+  void Handle(FrameRecord* record) {
+    const TrackedFrame& t = record->tracked;
+    TrajectoryStore& store = result_->poses;
+    const KeyframeDecision decision = manager_.Decide(t);
+    if (t.status == TrackingStatus::kReference) {
+      // First frame or restart after a loss: a keyframe by itself, related to the previous
+      // keyframe only through the frontend's poses.
+      store.AddKeyframe(t.index, t.timestamp_ns, t.world_from_cam);
+      BecomeKeyframe(record, decision.reason);
+      return;
+    }
+    if (t.reference_index >= 0 && store.IsKeyframe(t.reference_index)) {
+      store.AddFrame(t.index, t.timestamp_ns, t.reference_index, t.ref_from_cam);
+    } else if (last_keyframe_ >= 0) {
+      // Not tracked against a keyframe (a lost frame while restarting): keep the frontend's
+      // relation to the newest keyframe.
+      store.AddFrame(t.index, t.timestamp_ns, last_keyframe_,
+                     store.FrontendPose(last_keyframe_).Inverse() * t.world_from_cam);
+    } else {
+      store.AddFrame(t.index, t.timestamp_ns, -1, t.world_from_cam);
+    }
+    if (t.status == TrackingStatus::kLost) return;
+    bool switched = false;
+    if (external_) {
+      switched = decision.new_keyframe && frontend_->MakeLastFrameReference(nullptr);
+    } else {
+      switched = t.is_new_reference;  // the frontend switched by its own rule
+    }
+    if (switched) {
+      store.PromoteToKeyframe(t.index);
+      BecomeKeyframe(record, external_ ? decision.reason : KeyframeReason::kNone);
+    }
+  }
+
+ private:
+  void BecomeKeyframe(FrameRecord* record, KeyframeReason reason) {
+    const TrackedFrame& t = record->tracked;
+    manager_.AcceptKeyframe(t.index);
+    last_keyframe_ = t.index;
+    record->keyframe = true;
+    record->keyframe_reason = reason;
+    KeyframeRecord kf;
+    kf.frame_index = t.index;
+    kf.reason = reason;
+    if (window_) {
+      KeyframeData data;
+      const bool ok = frontend_->MakeLastFrameReference(&data);
+      DFO_CHECK(ok) << "frame " << t.index << " is the reference but has no keyframe data";
+      // The window works in the windowed trajectory's frame: the keyframe starts at its
+      // keyframe's bundle-adjusted pose composed with the tracked relative pose.
+      data.world_from_cam = result_->poses.WindowedPose(t.index);
+      const auto start = std::chrono::steady_clock::now();
+      kf.window = window_->AddKeyframe(std::move(data));
+      kf.backend_ms = MillisecondsSince(start);
+      kf.ba_ran = true;
+      record->backend_ms = kf.backend_ms;
+      bool finite = true;
+      for (const auto& [index, pose] : kf.window.keyframe_poses) finite &= IsFinitePose(pose);
+      if (kf.window.optimized && finite) {
+        for (const auto& [index, pose] : kf.window.keyframe_poses) {
+          result_->poses.SetWindowedPose(index, pose);
+        }
+        if (kf.window.marginalized_frame_index >= 0 &&
+            IsFinitePose(kf.window.marginalized_pose)) {
+          result_->poses.SetWindowedPose(kf.window.marginalized_frame_index,
+                                         kf.window.marginalized_pose);
+        }
+      } else if (kf.window.optimized) {
+        kf.window.optimized = false;
+        kf.window.message = "non-finite keyframe pose after the solve; poses not taken";
+      }
+      if (!kf.window.optimized && result_->poses.num_keyframes() > 1 &&
+          options_.log_stream != nullptr) {
+        std::fprintf(options_.log_stream,
+                     "%s: warning: bundle adjustment at keyframe %d kept the previous window "
+                     "state: %s\n",
+                     options_.label.c_str(), t.index,
+                     kf.window.message.empty() ? "no reason given" : kf.window.message.c_str());
+      }
+    }
+    result_->keyframes.push_back(std::move(kf));
+  }
+
+  Frontend* frontend_;
+  const SequenceRunOptions& options_;
+  SequenceRunResult* result_;
+  KeyframeManager manager_;
+  bool external_;
+  std::unique_ptr<WindowOptimizer> window_;
+  int last_keyframe_ = -1;
+};
+
+}  // namespace
+
 SequenceRunResult RunSequence(const FrameProvider& provider, Frontend* frontend,
                               const SequenceRunOptions& options) {
   SequenceRunResult result;
   result.sequence_name = provider.name();
   result.frames_in_sequence = provider.size();
+  result.mode = options.mode;
   result.frames.reserve(provider.size());
+  KeyframePipeline pipeline(frontend, options, &result);
   ProgressReporter progress(options.progress_stream, options.progress, provider.size(),
                             options.progress_interval_s, options.label);
   const auto start = std::chrono::steady_clock::now();
   int lost = 0;
+  const auto status_text = [&]() {
+    return "lost " + std::to_string(lost) + ", keyframes " +
+           std::to_string(result.keyframes.size());
+  };
   for (size_t i = 0; i < provider.size(); ++i) {
     // Any error ends the run here; what was computed so far is kept (and written by the caller).
     try {
@@ -77,31 +213,39 @@ SequenceRunResult RunSequence(const FrameProvider& provider, Frontend* frontend,
       record.load_ms = MillisecondsSince(frame_start);
       const Frame frame = ToFrame(std::move(loaded));
       record.tracked = frontend->Process(frame);
-      record.total_ms = MillisecondsSince(frame_start);
       const FrontendTimings& t = frontend->last_timings();
       record.features_ms = t.features_ms;
       record.depth_ms = t.depth_ms;
       record.tracking_ms = t.tracking_ms;
       lost += record.tracked.status == TrackingStatus::kLost ? 1 : 0;
+      pipeline.Handle(&record);
+      record.total_ms = MillisecondsSince(frame_start);
       result.frames.push_back(std::move(record));
     } catch (const std::exception& e) {
       result.error = e.what();
       break;
     }
-    progress.Update(result.frames.size(), "lost " + std::to_string(lost));
+    progress.Update(result.frames.size(), status_text());
   }
   result.wall_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
-  progress.Finish(result.frames.size(), "lost " + std::to_string(lost));
+  progress.Finish(result.frames.size(), status_text());
   return result;
 }
 
 RunEvaluation EvaluateRun(const SequenceRunResult& result) {
+  return EvaluateEstimate(result, result.Estimate());
+}
+
+RunEvaluation EvaluateEstimate(const SequenceRunResult& result, const Trajectory& estimate) {
   RunEvaluation e;
+  DFO_CHECK(estimate.size() == result.frames.size())
+      << estimate.size() << " poses for " << result.frames.size() << " frames";
   Trajectory gt, est;
-  for (const FrameRecord& f : result.frames) {
+  for (size_t i = 0; i < result.frames.size(); ++i) {
+    const FrameRecord& f = result.frames[i];
     if (!f.ground_truth) continue;
     gt.Add(f.tracked.timestamp_ns, *f.ground_truth);
-    est.Add(f.tracked.timestamp_ns, f.tracked.world_from_cam);
+    est.Add(f.tracked.timestamp_ns, estimate[i].world_from_cam);
   }
   if (gt.size() < 3) {
     e.note = gt.empty() ? "no ground truth for the processed frames"
@@ -124,9 +268,69 @@ RunEvaluation EvaluateRun(const SequenceRunResult& result) {
   return e;
 }
 
-io::JsonValue MakeRunSummary(const SequenceRunResult& result, const RunEvaluation& evaluation) {
+namespace {
+
+// The "frontend" / "windowed" object of summary.json (or null plus a note).
+void SetEvaluation(const RunEvaluation& evaluation, const std::string& key, io::JsonValue* s) {
+  if (!evaluation.available) {
+    s->Set(key, nullptr);
+    s->Set(key + "_note", evaluation.note);
+    return;
+  }
+  io::JsonValue out = EvaluationToJson(evaluation.sim3);
+  out.Set("ate_rmse_se3", evaluation.ate_rmse_se3);
+  out.Set("gt_path_length_m", evaluation.sim3.gt_path_length_m);
+  const double length = evaluation.sim3.gt_path_length_m;
+  out.Set("ate_rmse_pct_of_path", length > 0.0 ? 100.0 * evaluation.sim3.ate.stats.rmse / length
+                                               : std::numeric_limits<double>::quiet_NaN());
+  s->Set(key, std::move(out));
+}
+
+io::JsonValue KeyframesToJson(const SequenceRunResult& result) {
+  io::JsonValue k = io::JsonValue::Object();
+  k.Set("count", static_cast<int64_t>(result.keyframes.size()));
+  std::map<std::string, int> reasons;
+  int ba_runs = 0, optimized = 0, marginalized = 0, max_keyframes = 0, max_points = 0,
+      max_blocks = 0;
+  io::JsonValue failures = io::JsonValue::Array();
+  for (const KeyframeRecord& r : result.keyframes) {
+    ++reasons[r.reason == KeyframeReason::kNone ? "frontend" : KeyframeReasonName(r.reason)];
+    if (!r.ba_ran) continue;
+    ++ba_runs;
+    optimized += r.window.optimized ? 1 : 0;
+    marginalized += r.window.marginalized_frame_index >= 0 ? 1 : 0;
+    max_keyframes = std::max(max_keyframes, static_cast<int>(r.window.keyframe_poses.size()));
+    max_points = std::max(max_points, r.window.num_points);
+    max_blocks = std::max(max_blocks, r.window.num_residual_blocks);
+    // The first keyframe has nothing to optimise; that is not a failure.
+    if (!r.window.optimized && !r.window.message.empty() && failures.size() < 20) {
+      io::JsonValue f = io::JsonValue::Object();
+      f.Set("frame", r.frame_index);
+      f.Set("message", r.window.message);
+      failures.Push(std::move(f));
+    }
+  }
+  io::JsonValue reason_counts = io::JsonValue::Object();
+  for (const auto& [name, count] : reasons) reason_counts.Set(name, count);
+  k.Set("reasons", std::move(reason_counts));
+  k.Set("ba_runs", ba_runs);
+  k.Set("ba_optimized", optimized);
+  k.Set("ba_failed", ba_runs - optimized);
+  k.Set("marginalized", marginalized);
+  k.Set("max_window_keyframes", max_keyframes);
+  k.Set("max_points", max_points);
+  k.Set("max_residual_blocks", max_blocks);
+  k.Set("failures", std::move(failures));
+  return k;
+}
+
+}  // namespace
+
+io::JsonValue MakeRunSummary(const SequenceRunResult& result, const RunEvaluation& evaluation,
+                             const RunEvaluation* windowed) {
   io::JsonValue s = io::JsonValue::Object();
   s.Set("sequence", result.sequence_name);
+  s.Set("mode", RunModeName(result.mode));
   s.Set("frames", static_cast<int64_t>(result.frames.size()));
   s.Set("frames_in_sequence", static_cast<int64_t>(result.frames_in_sequence));
   s.Set("frames_ok", result.CountStatus(TrackingStatus::kOk));
@@ -137,19 +341,12 @@ io::JsonValue MakeRunSummary(const SequenceRunResult& result, const RunEvaluatio
   for (const FrameRecord& f : result.frames) references += f.tracked.is_new_reference ? 1 : 0;
   s.Set("references", references);
 
-  if (evaluation.available) {
-    io::JsonValue frontend = EvaluationToJson(evaluation.sim3);
-    frontend.Set("ate_rmse_se3", evaluation.ate_rmse_se3);
-    frontend.Set("gt_path_length_m", evaluation.sim3.gt_path_length_m);
-    const double length = evaluation.sim3.gt_path_length_m;
-    frontend.Set("ate_rmse_pct_of_path", length > 0.0
-                                             ? 100.0 * evaluation.sim3.ate.stats.rmse / length
-                                             : std::numeric_limits<double>::quiet_NaN());
-    s.Set("frontend", std::move(frontend));
-  } else {
-    s.Set("frontend", nullptr);
-    s.Set("frontend_note", evaluation.note);
+  if (result.has_frontend()) SetEvaluation(evaluation, "frontend", &s);
+  if (result.has_windowed()) {
+    SetEvaluation(windowed != nullptr ? *windowed : EvaluateEstimate(result, result.WindowedEstimate()),
+                  "windowed", &s);
   }
+  s.Set("keyframes", KeyframesToJson(result));
 
   std::vector<double> load, features, depth, tracking, total;
   for (const FrameRecord& f : result.frames) {
@@ -159,12 +356,22 @@ io::JsonValue MakeRunSummary(const SequenceRunResult& result, const RunEvaluatio
     tracking.push_back(f.tracking_ms);
     total.push_back(f.total_ms);
   }
+  std::vector<double> backend, solve, marginalization;
+  for (const KeyframeRecord& k : result.keyframes) {
+    if (!k.ba_ran) continue;
+    backend.push_back(k.backend_ms);
+    solve.push_back(k.window.solve_ms);
+    marginalization.push_back(k.window.marginalization_ms);
+  }
   io::JsonValue timing = io::JsonValue::Object();
   timing.Set("load", TimingToJson(SummariseTimes(load)));
   timing.Set("features", TimingToJson(SummariseTimes(features)));
   timing.Set("depth", TimingToJson(SummariseTimes(depth)));
   timing.Set("tracking", TimingToJson(SummariseTimes(tracking)));
   timing.Set("total_per_frame", TimingToJson(SummariseTimes(total)));
+  timing.Set("backend_per_keyframe", TimingToJson(SummariseTimes(backend)));
+  timing.Set("ba_solve_per_keyframe", TimingToJson(SummariseTimes(solve)));
+  timing.Set("marginalization_per_keyframe", TimingToJson(SummariseTimes(marginalization)));
   s.Set("timing_ms", std::move(timing));
   s.Set("fps", result.wall_s > 0.0 ? static_cast<double>(result.frames.size()) / result.wall_s
                                    : std::numeric_limits<double>::quiet_NaN());
@@ -177,16 +384,21 @@ io::JsonValue MakeRunSummary(const SequenceRunResult& result, const RunEvaluatio
 void WriteFramesCsv(const std::string& path, const SequenceRunResult& result) {
   std::string text =
       "index,timestamp_s,status,reference_index,new_reference,num_points,num_inliers,rmse,"
-      "iterations,load_ms,features_ms,depth_ms,tracking_ms,total_ms\n";
+      "iterations,keyframe,keyframe_reason,load_ms,features_ms,depth_ms,tracking_ms,backend_ms,"
+      "total_ms\n";
   for (const FrameRecord& f : result.frames) {
     const TrackedFrame& t = f.tracked;
+    const std::string reason =
+        !f.keyframe ? "" : (f.keyframe_reason == KeyframeReason::kNone
+                                ? "frontend"
+                                : KeyframeReasonName(f.keyframe_reason));
     text += std::to_string(t.index) + "," + io::FormatNsAsSeconds(t.timestamp_ns) + "," +
             TrackingStatusName(t.status) + "," + std::to_string(t.reference_index) + "," +
             (t.is_new_reference ? "1" : "0") + "," + std::to_string(t.num_points) + "," +
             std::to_string(t.num_inliers) + "," + Csv(t.rmse, 6) + "," +
-            std::to_string(t.iterations) + "," + Csv(f.load_ms, 3) + "," + Csv(f.features_ms, 3) +
-            "," + Csv(f.depth_ms, 3) + "," + Csv(f.tracking_ms, 3) + "," + Csv(f.total_ms, 3) +
-            "\n";
+            std::to_string(t.iterations) + "," + (f.keyframe ? "1" : "0") + "," + reason + "," +
+            Csv(f.load_ms, 3) + "," + Csv(f.features_ms, 3) + "," + Csv(f.depth_ms, 3) + "," +
+            Csv(f.tracking_ms, 3) + "," + Csv(f.backend_ms, 3) + "," + Csv(f.total_ms, 3) + "\n";
   }
   WriteTextFile(path, text);
 }
@@ -204,27 +416,71 @@ RunOutputs WriteRunOutputs(const SequenceRunResult& result, const std::string& o
   // Every processed frame gets a pose line, lost ones included (their pose is the last good one):
   // users ask for the poses of every frame, and the gap stays visible in frames.csv.
   const Trajectory estimate = result.Estimate();
-  io::WriteKittiTrajectory(path("frontend_kitti.txt"), estimate);
-  out.files.push_back(path("frontend_kitti.txt"));
-  io::WriteTumTrajectory(path("frontend_tum.txt"), estimate);
-  out.files.push_back(path("frontend_tum.txt"));
+  const Trajectory windowed = result.WindowedEstimate();
+  if (result.has_frontend()) {
+    io::WriteKittiTrajectory(path("frontend_kitti.txt"), estimate);
+    out.files.push_back(path("frontend_kitti.txt"));
+    io::WriteTumTrajectory(path("frontend_tum.txt"), estimate);
+    out.files.push_back(path("frontend_tum.txt"));
+  }
+  if (result.has_windowed()) {
+    io::WriteKittiTrajectory(path("windowed_kitti.txt"), windowed);
+    out.files.push_back(path("windowed_kitti.txt"));
+    io::WriteTumTrajectory(path("windowed_tum.txt"), windowed);
+    out.files.push_back(path("windowed_tum.txt"));
+  }
+  if (result.poses.num_frames() == static_cast<int>(result.frames.size())) {
+    io::WriteTumTrajectory(path("keyframes_tum.txt"),
+                           result.poses.KeyframeTrajectory(result.has_windowed()));
+    out.files.push_back(path("keyframes_tum.txt"));
+  }
   WriteFramesCsv(path("frames.csv"), result);
   out.files.push_back(path("frames.csv"));
 
-  out.evaluation = EvaluateRun(result);
-  if (plot && out.evaluation.available) {
-    const TrajectoryEvaluation& e = out.evaluation.sim3;
+  const size_t lost = static_cast<size_t>(result.CountStatus(TrackingStatus::kLost));
+  const std::string counts = " (" + std::to_string(result.frames.size()) + " frames, " +
+                             std::to_string(lost) + " lost, " +
+                             std::to_string(result.keyframes.size()) + " keyframes)";
+  if (result.has_frontend()) out.evaluation = EvaluateEstimate(result, estimate);
+  if (result.has_windowed()) out.windowed_evaluation = EvaluateEstimate(result, windowed);
+  const auto single_plot = [&](const RunEvaluation& ev, const char* what, const char* file) {
+    const TrajectoryEvaluation& e = ev.sim3;
     io::TrajectoryPlotOptions options;
-    options.title = "dfo_run frontend: " + result.sequence_name + " (" +
-                    std::to_string(result.frames.size()) + " frames, " +
-                    std::to_string(result.CountStatus(TrackingStatus::kLost)) + " lost)";
+    options.title = std::string("dfo_run ") + what + ": " + result.sequence_name + counts;
     options.text_lines = EvaluationPlotLines(e);
-    out.plot_path = path("frontend_trajectory.png");
-    io::WriteTrajectoryPlot(out.plot_path, e.ground_truth, e.alignment.aligned_estimate,
-                            e.ate.errors, options);
-    out.files.push_back(out.plot_path);
+    const std::string p = path(file);
+    io::WriteTrajectoryPlot(p, e.ground_truth, e.alignment.aligned_estimate, e.ate.errors,
+                            options);
+    out.files.push_back(p);
+    if (out.plot_path.empty()) out.plot_path = p;
+  };
+  if (plot && result.has_frontend() && out.evaluation.available) {
+    single_plot(out.evaluation, "frontend", "frontend_trajectory.png");
   }
-  out.summary = MakeRunSummary(result, out.evaluation);
+  if (plot && result.has_windowed() && out.windowed_evaluation.available) {
+    single_plot(out.windowed_evaluation, "windowed", "windowed_trajectory.png");
+  }
+  if (plot && result.has_frontend() && result.has_windowed() && out.evaluation.available &&
+      out.windowed_evaluation.available) {
+    // Both Sim3-aligned estimates over the ground truth.
+    io::TrajectoryPlotOptions options;
+    options.title = "dfo_run frontend-only vs windowed: " + result.sequence_name + counts;
+    options.text_lines = {
+        "frontend-only: Sim3 ATE rmse " + FormatFixed(out.evaluation.sim3.ate.stats.rmse, 4) +
+            " m, RPE " + FormatFixed(out.evaluation.sim3.rpe.translation.rmse, 4) + " m",
+        "windowed:      Sim3 ATE rmse " +
+            FormatFixed(out.windowed_evaluation.sim3.ate.stats.rmse, 4) + " m, RPE " +
+            FormatFixed(out.windowed_evaluation.sim3.rpe.translation.rmse, 4) + " m"};
+    const std::string p = path("comparison_trajectory.png");
+    io::WriteTrajectoriesPlot(
+        p, out.evaluation.sim3.ground_truth,
+        {{"frontend-only (Sim3-aligned)", out.evaluation.sim3.alignment.aligned_estimate},
+         {"windowed (Sim3-aligned)", out.windowed_evaluation.sim3.alignment.aligned_estimate}},
+        options);
+    out.files.push_back(p);
+    out.plot_path = p;
+  }
+  out.summary = MakeRunSummary(result, out.evaluation, &out.windowed_evaluation);
   WriteTextFile(path("summary.json"), out.summary.Dump(2) + "\n");
   out.files.push_back(path("summary.json"));
   return out;

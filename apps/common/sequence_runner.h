@@ -1,4 +1,5 @@
-// Running the frontend over a whole sequence and writing what dfo_run promises:
+// Running the frontend (and the sliding-window backend) over a whole sequence and writing what
+// dfo_run promises:
 //
 //   io::Sequence sequence = io::OpenSequence(dataset_options);
 //   SequenceFrameProvider provider(sequence);
@@ -6,20 +7,35 @@
 //   SequenceRunResult result = RunSequence(provider, &frontend, run_options);
 //   RunOutputs outputs = WriteRunOutputs(result, "results/", /*plot=*/true);
 //
+// Keyframes: with the frontend's reference.policy "external" the keyframe manager
+// (dfo_backend/keyframe_manager.h, run_options.keyframe) decides which frame becomes the
+// tracker's next reference; with "internal" the frontend's own references are the keyframes.
+// Every keyframe goes to the WindowOptimizer (run_options.window) unless the mode is kFrontend.
+// Both trajectories come from the same frontend outputs (dfo_backend/trajectory_store.h): each
+// frame's pose relative to its keyframe, composed on the frontend's keyframe poses
+// (frontend-only) or on the window's bundle-adjusted ones (windowed). A bundle adjustment that
+// fails or diverges keeps the window's previous state; the run logs why and goes on.
+//
 // RunSequence never throws on bad data met during the run (an unreadable image, a depth map of
 // the wrong size): it stops there and returns the frames processed so far with the error's
 // message, so that the trajectory up to the failure is still written. Lost tracking is a status
 // of the frame, not an error.
 //
 // Files written by WriteRunOutputs into the output folder:
-//   frontend_kitti.txt    every processed frame's world_from_cam, KITTI format (12 numbers/line)
+//   frontend_kitti.txt    every processed frame's frontend-only pose (world_from_cam), KITTI format
+//                         (12 numbers/line); modes frontend and both
 //   frontend_tum.txt      the same with timestamps, TUM format
+//   windowed_kitti.txt    every processed frame's windowed pose, KITTI format; modes windowed, both
+//   windowed_tum.txt      the same, TUM format
+//   keyframes_tum.txt     the keyframes' poses (windowed; frontend-only in mode frontend), TUM
 //   frames.csv            per frame: index, timestamp_s, status, reference_index, new_reference,
-//                         num_points, num_inliers, rmse, iterations, load_ms, features_ms,
-//                         depth_ms, tracking_ms, total_ms
+//                         num_points, num_inliers, rmse, iterations, keyframe, keyframe_reason,
+//                         load_ms, features_ms, depth_ms, tracking_ms, backend_ms, total_ms
 //   summary.json          see MakeRunSummary
 //   frontend_trajectory.png  top view of ground truth and Sim3-aligned estimate coloured by ATE
-//                         (only when at least 3 processed frames have ground truth and plot)
+//                         (only when at least 3 processed frames have ground truth and plot);
+//                         windowed_trajectory.png the same for the windowed estimate, and
+//                         comparison_trajectory.png both over the ground truth (mode both)
 #ifndef DFO_APPS_COMMON_SEQUENCE_RUNNER_H_
 #define DFO_APPS_COMMON_SEQUENCE_RUNNER_H_
 
@@ -28,8 +44,12 @@
 #include <string>
 #include <vector>
 
+#include "apps/common/backend_config.h"
 #include "apps/common/evaluation.h"
 #include "apps/common/progress.h"
+#include "dfo_backend/keyframe_manager.h"
+#include "dfo_backend/trajectory_store.h"
+#include "dfo_backend/window_optimizer.h"
 #include "dfo_core/frame.h"
 #include "dfo_core/trajectory.h"
 #include "dfo_frontend/frontend.h"
@@ -70,6 +90,20 @@ struct SequenceRunOptions {
   double progress_interval_s = 5.0;             // spacing of plain progress lines, > 0
   std::FILE* progress_stream = stdout;          // not owned; nullptr = no progress
   std::string label = "dfo_run";                // first word of progress lines
+  // kFrontend: no bundle adjustment; kWindowed / kBoth: every keyframe goes to the window.
+  RunMode mode = RunMode::kFrontend;
+  KeyframeOptions keyframe;      // the keyframe manager's rules (reference.policy "external")
+  WindowOptions window;          // the sliding window (modes kWindowed, kBoth)
+  std::FILE* log_stream = stderr;  // one line per failed bundle adjustment; nullptr = silent
+};
+
+// What happened at one keyframe.
+struct KeyframeRecord {
+  int frame_index = 0;
+  KeyframeReason reason = KeyframeReason::kNone;  // kNone: the frontend's own (internal) switch
+  bool ba_ran = false;          // the keyframe went to the window (modes kWindowed, kBoth)
+  WindowResult window;          // what WindowOptimizer::AddKeyframe returned (when ba_ran)
+  double backend_ms = 0.0;      // wall time of AddKeyframe (BA + marginalisation)
 };
 
 // One processed frame.
@@ -80,7 +114,10 @@ struct FrameRecord {
   double features_ms = 0.0;          // FrontendTimings::features_ms
   double depth_ms = 0.0;             // FrontendTimings::depth_ms
   double tracking_ms = 0.0;          // FrontendTimings::tracking_ms
-  double total_ms = 0.0;             // load + the whole Frontend::Process call
+  bool keyframe = false;             // the frame became a keyframe
+  KeyframeReason keyframe_reason = KeyframeReason::kNone;
+  double backend_ms = 0.0;           // window AddKeyframe time (keyframes only, else 0)
+  double total_ms = 0.0;             // load + Frontend::Process + keyframe handling + backend
 };
 
 // Everything a run produced.
@@ -90,16 +127,31 @@ struct SequenceRunResult {
   std::vector<FrameRecord> frames;  // frames processed, in order (all of them unless error)
   std::string error;                // what stopped the run early; "" when every frame ran
   double wall_s = 0.0;              // wall time of the loop (loading included)
+  RunMode mode = RunMode::kFrontend;
+  TrajectoryStore poses;                 // every processed frame, relative to its keyframe
+  std::vector<KeyframeRecord> keyframes;  // in order
 
-  // Poses of the processed frames (world_from_cam, stamped), in order.
+  // Frontend-only poses of the processed frames (stamped), in order: the store's frontend
+  // trajectory (the tracked world_from_cam when the store does not hold every frame, e.g. a
+  // result assembled by hand).
   Trajectory Estimate() const;
+  // Windowed poses of the processed frames, in order (the store's windowed trajectory; equal to
+  // Estimate() when the store does not hold every frame).
+  Trajectory WindowedEstimate() const;
+  // True when the window ran (modes kWindowed, kBoth).
+  bool has_windowed() const { return mode != RunMode::kFrontend; }
+  // True when the frontend-only trajectory is an output (modes kFrontend, kBoth).
+  bool has_frontend() const { return mode != RunMode::kWindowed; }
   // Number of processed frames with the given status.
   int CountStatus(TrackingStatus status) const;
 };
 
-// Runs `frontend` over every frame of `provider` in order, with a progress line. Stops at the
-// first error thrown while loading or processing a frame (dfo::Error or another std::exception)
-// and records its message in SequenceRunResult::error; never throws for those.
+// Runs `frontend` over every frame of `provider` in order, with a progress line, deciding
+// keyframes and running the window as the file comment says. Stops at the first error thrown
+// while loading or processing a frame (dfo::Error or another std::exception) and records its
+// message in SequenceRunResult::error; never throws for those. Throws ConfigError up front when
+// options.keyframe or options.window (modes kWindowed, kBoth) fail their Check(), or when
+// window.pyramid_level is not below the tracker's number of levels.
 SequenceRunResult RunSequence(const FrameProvider& provider, Frontend* frontend,
                               const SequenceRunOptions& options = {});
 
@@ -114,27 +166,39 @@ struct RunEvaluation {
 // Evaluates the estimate of the frames that have ground truth (paired by frame, format
 // "frames"): Sim3 alignment for all metrics and the SE3-aligned ATE RMSE. Needs at least 3 such
 // frames with a non-degenerate path; otherwise available = false with the reason in `note`.
+// EvaluateRun uses the frontend-only Estimate(); EvaluateEstimate any trajectory with one pose
+// per processed frame (e.g. WindowedEstimate()).
 RunEvaluation EvaluateRun(const SequenceRunResult& result);
+RunEvaluation EvaluateEstimate(const SequenceRunResult& result, const Trajectory& estimate);
 
 // summary.json: {
-//   "sequence", "frames" (processed), "frames_in_sequence", "frames_ok", "frames_degraded",
-//   "frames_lost", "frames_reference" (frames with status reference), "references" (frames that
-//   became a reference),
+//   "sequence", "mode" (frontend | windowed | both), "frames" (processed), "frames_in_sequence",
+//   "frames_ok", "frames_degraded", "frames_lost", "frames_reference" (frames with status
+//   reference), "references" (frames that became a reference),
 //   "frontend": the EvaluationToJson keys (Sim3) plus "ate_rmse_se3", "gt_path_length_m" and
 //               "ate_rmse_pct_of_path" (100 * Sim3 ATE RMSE / ground-truth path length); null
-//               without ground truth ("frontend_note" then says why),
-//   "timing_ms": {"load", "features", "depth", "tracking", "total_per_frame"}, each
-//               {"median", "p95", "mean", "max"},
+//               without ground truth ("frontend_note" then says why); absent in mode windowed,
+//   "windowed": the same keys for the windowed trajectory ("windowed_note"); modes windowed and
+//               both only,
+//   "keyframes": {"count", "reasons": {reason: count}, "ba_runs", "ba_optimized", "ba_failed",
+//               "marginalized", "max_window_keyframes", "max_points", "max_residual_blocks",
+//               "failures": [{"frame", "message"}] (at most 20)},
+//   "timing_ms": {"load", "features", "depth", "tracking", "total_per_frame",
+//               "backend_per_keyframe", "ba_solve_per_keyframe",
+//               "marginalization_per_keyframe"}, each {"median", "p95", "mean", "max"} (null
+//               without a sample),
 //   "fps" (processed frames per second of wall time), "wall_s", "peak_rss_mb",
 //   "error" (only when the run stopped early: the message) }
-io::JsonValue MakeRunSummary(const SequenceRunResult& result, const RunEvaluation& evaluation);
+io::JsonValue MakeRunSummary(const SequenceRunResult& result, const RunEvaluation& evaluation,
+                             const RunEvaluation* windowed = nullptr);
 
 // Paths written by WriteRunOutputs, and the summary.
 struct RunOutputs {
   std::vector<std::string> files;  // every file written, in order
   std::string plot_path;           // "" when no plot was written
   io::JsonValue summary;
-  RunEvaluation evaluation;
+  RunEvaluation evaluation;           // frontend-only (not evaluated in mode windowed)
+  RunEvaluation windowed_evaluation;  // windowed (modes windowed and both)
 };
 
 // Writes the files of the header comment into `output_dir` (created). Throws InputError when a
