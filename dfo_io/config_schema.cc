@@ -170,7 +170,8 @@ ConfigSchema BuildSchema() {
       .Min(1);
 
   // Defaults mirror WindowOptions (dfo_backend/window_optimizer.h); a test in tests/apps
-  // compares them. Its num_threads is run.threads (1 with run.deterministic).
+  // compares them. Its num_threads is run.threads; run.deterministic makes it 1 and lifts
+  // max_solver_time_s (apps/common/backend_config.h).
   s.AddSection("window",
                "Sliding window of keyframes with feature-metric bundle adjustment (Ceres): "
                "points, patches, loss, solver.");
@@ -195,7 +196,8 @@ ConfigSchema BuildSchema() {
   s.AddInt("window.max_iterations", 8,
            "Levenberg-Marquardt iterations per solve (up to two solves per keyframe)")
       .Min(1);
-  s.AddDouble("window.max_solver_time_s", 0.2, "Wall-time limit of one solve in seconds")
+  s.AddDouble("window.max_solver_time_s", 0.2,
+              "Wall-time limit of one solve in seconds (ignored with run.deterministic: true)")
       .GreaterThan(0);
   s.AddDouble("window.min_inverse_depth", 1e-3,
               "Lower bound of every point's inverse depth in 1/m (1e-3: up to 1 km)")
@@ -251,11 +253,11 @@ ConfigSchema BuildSchema() {
   s.AddString("run.output_dir", "results",
               "Folder for trajectories, metrics and config_effective.yaml (created)");
   s.AddBool("run.deterministic", true,
-            "Identical results run to run (fixed seeds, ordered reductions), possibly slower; "
-            "the current frontend is deterministic either way");
+            "Identical results run to run (fixed seeds, ordered reductions; the window solves "
+            "with one thread and no time limit), possibly slower");
   s.AddInt("run.threads", 2,
-           "Worker threads of the frontend (FrontendOptions::num_threads); 0 = all hardware "
-           "threads")
+           "Worker threads of the frontend and of the window's Ceres solves (1 for Ceres with "
+           "run.deterministic); 0 = all hardware threads")
       .Min(0);
   s.AddString("run.progress", "auto",
               "Progress line: auto = redrawn in place on a terminal, plain periodic lines "

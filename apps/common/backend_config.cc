@@ -62,7 +62,13 @@ WindowOptions WindowOptionsFromConfig(const io::Config& config) {
   o.first_estimate_jacobians = config.GetBool("backend.first_estimate_jacobians");
   o.prior_weight = config.GetDouble("backend.prior_weight");
   o.relative_eigenvalue_floor = config.GetDouble("backend.relative_eigenvalue_floor");
-  o.num_threads = config.GetBool("run.deterministic") ? 1 : ThreadsFromConfig(config);
+  o.num_threads = ThreadsFromConfig(config);
+  if (config.GetBool("run.deterministic")) {
+    // Identical results run to run: one Ceres thread, and no wall-clock limit on a solve (where
+    // a solve stops would depend on the machine's load); the iteration limit still holds.
+    o.num_threads = 1;
+    o.max_solver_time_s = kDeterministicSolverTimeS;
+  }
   o.Check();
   return o;
 }

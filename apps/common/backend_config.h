@@ -32,8 +32,11 @@ RunMode RunModeFromConfig(const io::Config& config);
 KeyframeOptions KeyframeOptionsFromConfig(const io::Config& config);
 
 // The window.* and backend.* keys as WindowOptions, num_threads from run.threads (0 = all
-// hardware threads) or 1 when run.deterministic is true (Ceres then gives identical results run
-// to run); checked (WindowOptions::Check throws ConfigError naming the key).
+// hardware threads); checked (WindowOptions::Check throws ConfigError naming the key). With
+// run.deterministic = true: num_threads = 1 and max_solver_time_s = kDeterministicSolverTimeS
+// (a wall-clock limit would make the result depend on the machine's load), so that Ceres gives
+// byte-identical results run to run; window.max_iterations still bounds each solve.
+constexpr double kDeterministicSolverTimeS = 1e6;
 WindowOptions WindowOptionsFromConfig(const io::Config& config);
 
 // keyframe.decided_by = manager: the frontend runs with reference.policy "external" and the

@@ -144,6 +144,7 @@ class KeyframePipeline {
       // The window works in the windowed trajectory's frame: the keyframe starts at its
       // keyframe's bundle-adjusted pose composed with the tracked relative pose.
       data.world_from_cam = result_->poses.WindowedPose(t.index);
+      if (options_.keyframe_filter) options_.keyframe_filter(&data);
       const auto start = std::chrono::steady_clock::now();
       kf.window = window_->AddKeyframe(std::move(data));
       kf.backend_ms = MillisecondsSince(start);
@@ -446,8 +447,9 @@ RunOutputs WriteRunOutputs(const SequenceRunResult& result, const std::string& o
   const auto single_plot = [&](const RunEvaluation& ev, const char* what, const char* file) {
     const TrajectoryEvaluation& e = ev.sim3;
     io::TrajectoryPlotOptions options;
-    options.title = std::string("dfo_run ") + what + ": " + result.sequence_name + counts;
+    options.title = std::string("dfo_run ") + what + ": " + result.sequence_name;
     options.text_lines = EvaluationPlotLines(e);
+    options.text_lines.insert(options.text_lines.begin(), counts.substr(2, counts.size() - 3));
     const std::string p = path(file);
     io::WriteTrajectoryPlot(p, e.ground_truth, e.alignment.aligned_estimate, e.ate.errors,
                             options);
@@ -464,8 +466,9 @@ RunOutputs WriteRunOutputs(const SequenceRunResult& result, const std::string& o
       out.windowed_evaluation.available) {
     // Both Sim3-aligned estimates over the ground truth.
     io::TrajectoryPlotOptions options;
-    options.title = "dfo_run frontend-only vs windowed: " + result.sequence_name + counts;
+    options.title = "dfo_run frontend-only vs windowed: " + result.sequence_name;
     options.text_lines = {
+        counts.substr(2, counts.size() - 3),
         "frontend-only: Sim3 ATE rmse " + FormatFixed(out.evaluation.sim3.ate.stats.rmse, 4) +
             " m, RPE " + FormatFixed(out.evaluation.sim3.rpe.translation.rmse, 4) + " m",
         "windowed:      Sim3 ATE rmse " +

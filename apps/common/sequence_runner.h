@@ -40,6 +40,7 @@
 #define DFO_APPS_COMMON_SEQUENCE_RUNNER_H_
 
 #include <cstdio>
+#include <functional>
 #include <optional>
 #include <string>
 #include <vector>
@@ -95,6 +96,8 @@ struct SequenceRunOptions {
   KeyframeOptions keyframe;      // the keyframe manager's rules (reference.policy "external")
   WindowOptions window;          // the sliding window (modes kWindowed, kBoth)
   std::FILE* log_stream = stderr;  // one line per failed bundle adjustment; nullptr = silent
+  // For tests (fault injection): called on each keyframe's data just before the window gets it.
+  std::function<void(KeyframeData*)> keyframe_filter;
 };
 
 // What happened at one keyframe.

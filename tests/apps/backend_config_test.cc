@@ -41,7 +41,7 @@ TEST(BackendConfig, SchemaDefaultsEqualWindowOptionsDefaults) {
   EXPECT_EQ(w.loss_scale, d.loss_scale);
   EXPECT_EQ(w.linear_solver, d.linear_solver);
   EXPECT_EQ(w.max_iterations, d.max_iterations);
-  EXPECT_EQ(w.max_solver_time_s, d.max_solver_time_s);
+  EXPECT_EQ(w.max_solver_time_s, apps::kDeterministicSolverTimeS);  // run.deterministic
   EXPECT_EQ(w.min_inverse_depth, d.min_inverse_depth);
   EXPECT_EQ(w.depth_prior_weight, d.depth_prior_weight);
   EXPECT_EQ(w.pose_prior_weight, d.pose_prior_weight);
@@ -60,6 +60,7 @@ TEST(BackendConfig, SchemaDefaultsEqualWindowOptionsDefaults) {
       io::LoadConfigFromString("run:\n  deterministic: false\n  threads: 3\n", "f.yaml",
                                io::DfoSchema());
   EXPECT_EQ(apps::WindowOptionsFromConfig(fast).num_threads, 3);
+  EXPECT_EQ(apps::WindowOptionsFromConfig(fast).max_solver_time_s, d.max_solver_time_s);
 }
 
 TEST(BackendConfig, EveryWindowAndBackendKeyReachesItsField) {
@@ -85,7 +86,9 @@ TEST(BackendConfig, EveryWindowAndBackendKeyReachesItsField) {
       "  marginalization: false\n"
       "  first_estimate_jacobians: true\n"
       "  prior_weight: 0.5\n"
-      "  relative_eigenvalue_floor: 1e-6\n",
+      "  relative_eigenvalue_floor: 1e-6\n"
+      "run:\n"
+      "  deterministic: false\n",
       "all.yaml", io::DfoSchema());
   const WindowOptions w = apps::WindowOptionsFromConfig(config);
   EXPECT_EQ(w.max_keyframes, 5);
