@@ -24,26 +24,40 @@ if [ ! -x "$RUN" ]; then
   exit 1
 fi
 echo
-echo "== dfo demo: frontend (hand-made features, ground-truth depth) over the sequence =="
+echo "== dfo demo: frontend (hand-made features, ground-truth depth), keyframes, sliding-window BA =="
+echo "   (run.mode both: the frontend-only and the windowed trajectory from the same frontend pass)"
 CONFIG="$(cd "$(dirname "$0")/.." && pwd)/configs/demo.yaml"
 "$RUN" --config "$CONFIG" --set dataset.path="$OUT_DIR/synthetic" --output "$OUT_DIR/run"
 
 # A few figures from summary.json (pretty-printed: one key per line).
 SUMMARY="$OUT_DIR/run/summary.json"
-value() { grep -m1 "\"$1\":" "$SUMMARY" | sed -e 's/.*: *//' -e 's/,$//'; }
-# value rounded to $2 decimals ("null" and other non-numbers as they are).
+# value KEY [OBJECT]: the first "KEY": value, after the line that opens "OBJECT": { when given.
+value() {
+  local obj=""
+  if [ -n "${2:-}" ]; then obj="\"$2\": {"; fi
+  awk -v key="\"$1\":" -v obj="$obj" '
+    obj != "" && !inside { if (index($0, obj)) inside = 1; next }
+    index($0, key) { sub(/.*": */, ""); sub(/,$/, ""); print; exit }' "$SUMMARY"
+}
+# value rounded to $3 decimals ("null" and other non-numbers as they are).
 fixed() {
   local v
-  v=$(value "$1")
-  if [[ "$v" =~ ^-?[0-9.]+([eE][-+]?[0-9]+)?$ ]]; then LC_ALL=C printf "%.$2f" "$v"; else printf "%s" "$v"; fi
+  v=$(value "$1" "$2")
+  if [[ "$v" =~ ^-?[0-9.]+([eE][-+]?[0-9]+)?$ ]]; then LC_ALL=C printf "%.$3f" "$v"; else printf "%s" "$v"; fi
 }
 echo
 echo "== done =="
-echo "frames:                   $(value frames) ($(value frames_lost) lost)"
-echo "ATE (Sim3 aligned):       $(fixed ate_rmse 4) m rmse = $(fixed ate_rmse_pct_of_path 3) % of the $(fixed gt_path_length_m 1) m path"
-echo "speed:                    $(fixed fps 1) frames/s (whole run: loading PNGs + frontend)"
+echo "frames:                   $(value frames) ($(value frames_lost) lost), $(value count keyframes) keyframes"
+for which in frontend windowed; do
+  printf "%-25s %s m rmse = %s %% of the %s m path; SE3 ATE %s m; RPE %s m/frame\n" \
+    "ATE $which (Sim3):" "$(fixed ate_rmse $which 4)" "$(fixed ate_rmse_pct_of_path $which 3)" \
+    "$(fixed gt_path_length_m $which 1)" "$(fixed ate_rmse_se3 $which 4)" \
+    "$(fixed rpe_trans_rmse $which 4)"
+done
+echo "speed:                    $(fixed fps '' 1) frames/s (whole run: loading PNGs + frontend + window); window per keyframe median $(fixed median backend_per_keyframe 1) ms"
 echo "sequence (KITTI layout):  $OUT_DIR/synthetic/sequences/00  (image_0, image_2, depth_0, calib.txt, times.txt)"
 echo "ground truth poses:       $OUT_DIR/synthetic/poses/00.txt"
-echo "estimated poses:          $OUT_DIR/run/frontend_kitti.txt, $OUT_DIR/run/frontend_tum.txt"
+echo "estimated poses:          $OUT_DIR/run/frontend_kitti.txt (frontend-only), $OUT_DIR/run/windowed_kitti.txt (windowed), $OUT_DIR/run/keyframes_tum.txt"
 echo "summary:                  $SUMMARY"
-echo "pictures:                 $OUT_DIR/synthetic_preview.png (sequence), $OUT_DIR/run/frontend_trajectory.png (trajectory vs ground truth)"
+echo "pictures:                 $OUT_DIR/synthetic_preview.png (sequence), $OUT_DIR/run/comparison_trajectory.png (both vs ground truth),"
+echo "                          $OUT_DIR/run/frontend_trajectory.png, $OUT_DIR/run/windowed_trajectory.png (coloured by ATE)"
