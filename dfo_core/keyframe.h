@@ -16,7 +16,11 @@ namespace dfo {
 struct KeyframeData {
   int frame_index = 0;       // Frame::index of the keyframe
   int64_t timestamp_ns = 0;  // Frame::timestamp_ns
-  SE3d world_from_cam;       // frontend estimate when it became a keyframe (camera-to-world)
+  // Camera-to-world estimate when it became a keyframe: the frontend's (Frontend::
+  // MakeLastFrameReference); dfo_run hands the window the same frontend relative pose composed on
+  // the bundle-adjusted pose of the keyframe it was tracked against (TrajectoryStore), so that
+  // the new keyframe starts consistent with the window.
+  SE3d world_from_cam;
   FeaturePyramid features;   // z-scored feature maps as tracked (planar C x H x W per level)
   DepthPyramid depth;        // depth per level (m, 0 = invalid) from the frontend's depth source
 };

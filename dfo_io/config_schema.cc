@@ -266,7 +266,8 @@ ConfigSchema BuildSchema() {
   s.AddDouble("run.progress_interval_s", 5.0, "Seconds between plain progress lines")
       .GreaterThan(0);
   s.AddBool("run.plot", true,
-            "Write frontend_trajectory.png (top view coloured by ATE) when ground truth exists");
+            "Write the trajectory pictures (frontend, windowed, both compared; top views coloured "
+            "by ATE) when ground truth exists");
   return s;
 }
 
