@@ -209,8 +209,7 @@ TEST(ModelFileTest, WeightsThatDisagreeWithTheMetadata) {
   WriteArchive(channels, meta, *nets);
   std::string msg = InputErrorOf([&] { LoadModel(channels); });
   EXPECT_TRUE(Contains(msg, channels)) << msg;
-  EXPECT_TRUE(Contains(msg, "parameter feature.feature_heads.3.weight has shape [8, 16, 1, 1]"))
-      << msg;
+  EXPECT_TRUE(Contains(msg, "parameter feature.heads.3.weight has shape [9, 16, 3, 3]")) << msg;
 
   // Weights of a 3-level network, metadata of a 4-level one: a parameter is missing.
   NetworkOptions three = o;

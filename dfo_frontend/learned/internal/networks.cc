@@ -73,11 +73,14 @@ torch::Tensor GaussianKernel3x3() {
 }
 
 torch::Tensor GaussianSmooth3x3(const torch::Tensor& x) {
-  const int64_t c = x.size(1);
-  const torch::Tensor w =
-      GaussianKernel3x3().to(x.options()).view({1, 1, 3, 3}).expand({c, 1, 3, 3}).contiguous();
-  const torch::Tensor padded = F::pad(x, F::PadFuncOptions({1, 1, 1, 1}).mode(torch::kReplicate));
-  return F::conv2d(padded, w, F::Conv2dFuncOptions().groups(c));
+  // [1 2 1] / 4 = [1 1] / 2 * [1 1] / 2, so the 3x3 Gaussian is two 2x2 box filters of stride 1.
+  // The first one pads by 1 and averages only the pixels inside the image, which at a border
+  // equals averaging a replicate-padded image ((x0 + x0) / 2 = x0); the second one pads nothing.
+  // Exactly the replicate-padded depthwise 3x3 convolution, but ~3x faster on this CPU in
+  // channels_last (a depthwise convolution over 8 full-resolution channels took ~1.7 ms).
+  const torch::Tensor once = torch::avg_pool2d(x, {2, 2}, {1, 1}, {1, 1}, /*ceil_mode=*/false,
+                                               /*count_include_pad=*/false);
+  return torch::avg_pool2d(once, {2, 2}, {1, 1}, {0, 0});
 }
 
 torch::Tensor GumbelSigmoid(const torch::Tensor& logits, double temperature,
@@ -203,8 +206,7 @@ FeatureNetImpl::FeatureNetImpl(const NetworkOptions& options) : options_(options
   }
   decoder_conv_ = register_module("decoder_conv", torch::nn::ModuleList());
   decoder_rab_ = register_module("decoder_rab", torch::nn::ModuleList());
-  feature_heads_ = register_module("feature_heads", torch::nn::ModuleList());
-  mask_heads_ = register_module("mask_heads", torch::nn::ModuleList());
+  heads_ = register_module("heads", torch::nn::ModuleList());
   recon_heads_ = register_module("recon_heads", torch::nn::ModuleList());
   for (int l = 0; l < levels; ++l) {
     const int up_in = l == levels - 1 ? enc[levels - 1] : dec[l + 1];
@@ -213,8 +215,10 @@ FeatureNetImpl::FeatureNetImpl(const NetworkOptions& options) : options_(options
     // The full-resolution level has no attention block: it is the most expensive stage (the
     // DESIGN notes: the full-resolution decoder is ~45% of a plain U-Net's FLOPs).
     if (l >= 1) decoder_rab_->push_back(ResidualAttentionBlock(dec[l]));
-    feature_heads_->push_back(Conv(dec[l], options_.channels[l], 1));
-    mask_heads_->push_back(Conv(dec[l], 1, 3));
+    // One 3x3 convolution gives the C_l feature channels and, as channel C_l, the attention
+    // branch's mask logit (one call instead of two: at full resolution a convolution costs
+    // ~1 ms whatever its width, so separate heads doubled the cost).
+    heads_->push_back(Conv(dec[l], options_.channels[l] + 1, 3));
     recon_heads_->push_back(
         torch::nn::Sequential(Conv(options_.channels[l], options_.reconstruction_width, 3),
                               torch::nn::ReLU(), Conv(options_.reconstruction_width, 3, 3)));
@@ -247,9 +251,10 @@ FeatureNetOutput FeatureNetImpl::forward(const torch::Tensor& image) {
     cat.push_back(img);
     y = torch::relu(decoder_conv_[l]->as<torch::nn::Conv2dImpl>()->forward(torch::cat(cat, 1)));
     if (l >= 1) y = decoder_rab_[l - 1]->as<ResidualAttentionBlockImpl>()->forward(y);
-    out.features[l] =
-        GaussianSmooth3x3(torch::relu(feature_heads_[l]->as<torch::nn::Conv2dImpl>()->forward(y)));
-    out.mask_logits[l] = mask_heads_[l]->as<torch::nn::Conv2dImpl>()->forward(y);
+    const torch::Tensor heads = heads_[l]->as<torch::nn::Conv2dImpl>()->forward(y);
+    const int64_t c = options_.channels[l];
+    out.features[l] = GaussianSmooth3x3(torch::relu(heads.slice(1, 0, c)));
+    out.mask_logits[l] = heads.slice(1, c, c + 1);
   }
   return out;
 }

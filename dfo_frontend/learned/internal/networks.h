@@ -122,12 +122,11 @@ class FeatureNetImpl : public torch::nn::Module {
 
  private:
   NetworkOptions options_;
-  torch::nn::ModuleList encoder_{nullptr};        // per stage: Sequential(conv s2, ReLU, RAB)
-  torch::nn::ModuleList decoder_conv_{nullptr};   // per level: conv after concatenation
-  torch::nn::ModuleList decoder_rab_{nullptr};    // per level >= 1: residual attention block
-  torch::nn::ModuleList feature_heads_{nullptr};  // per level: conv1x1 -> C_l
-  torch::nn::ModuleList mask_heads_{nullptr};     // per level: conv3x3 -> 1 logit
-  torch::nn::ModuleList recon_heads_{nullptr};    // per level: conv-ReLU-conv -> 3, sigmoid
+  torch::nn::ModuleList encoder_{nullptr};       // per stage: Sequential(conv s2, ReLU, RAB)
+  torch::nn::ModuleList decoder_conv_{nullptr};  // per level: conv after concatenation
+  torch::nn::ModuleList decoder_rab_{nullptr};   // per level >= 1: residual attention block
+  torch::nn::ModuleList heads_{nullptr};        // per level: conv3x3 -> C_l features + 1 mask logit
+  torch::nn::ModuleList recon_heads_{nullptr};  // per level: conv-ReLU-conv -> 3, sigmoid
 };
 TORCH_MODULE(FeatureNet);
 
