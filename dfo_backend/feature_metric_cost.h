@@ -21,9 +21,11 @@
 // with grad F_t the gradient of the bilinear interpolant itself (so the derivative is exact
 // wherever the interpolant is differentiable, i.e. off the integer grid lines).
 //
-// A patch pixel whose projection falls outside the target image (or behind the camera) gives
-// zero residuals and zero Jacobian rows for all its channels; the window only creates a block
-// when the patch centre is visible, so this happens only when a solve moves it out.
+// A patch pixel whose projection falls outside the target image is sampled at the projection
+// clamped to the image border (derivative 0 along the clamped axis); one behind the camera is
+// compared against 0 (the z-scored mean) with zero Jacobian rows. Neither gives a zero residual,
+// so a solve is never rewarded for moving points out of view. The window only creates a block
+// when the whole patch is visible.
 #ifndef DFO_BACKEND_FEATURE_METRIC_COST_H_
 #define DFO_BACKEND_FEATURE_METRIC_COST_H_
 
@@ -74,6 +76,10 @@ class FeatureMetricCost : public ceres::CostFunction {
   int channels() const { return target_->channels; }
 
  private:
+  bool EvaluateImpl(const double* host_pose, const double* target_pose, double inverse_depth,
+                    double* residuals, double* jacobian_host, double* jacobian_target,
+                    double* jacobian_inverse_depth, bool ambient) const;
+
   const FeatureLevel* target_;
   PinholeCamera host_camera_;
   Eigen::Vector2d host_uv_;

@@ -5,6 +5,8 @@
 #include <algorithm>
 #include <array>
 #include <chrono>
+#include <cstdio>
+#include <cstdlib>
 #include <cmath>
 #include <map>
 #include <sstream>
@@ -327,9 +329,6 @@ bool WindowOptimizer::Solve(double* initial_cost, double* final_cost, std::strin
                                &p->inverse_depth);
       ++num_blocks;
     }
-    if (options_.min_inverse_depth > 0.0) {
-      problem.SetParameterLowerBound(&p->inverse_depth, 0, options_.min_inverse_depth);
-    }
     ordering->AddElementToGroup(&p->inverse_depth, 0);
     if (options_.depth_prior_weight > 0.0) {
       owned_costs.push_back(std::make_unique<InverseDepthPriorCost>(p->prior_inverse_depth,
@@ -372,8 +371,14 @@ bool WindowOptimizer::Solve(double* initial_cost, double* final_cost, std::strin
   solver_options.minimizer_progress_to_stdout = false;
   ceres::Solver::Summary summary;
   ceres::Solve(solver_options, &problem, &summary);
+  if (std::getenv("DFO_BA_DEBUG")) std::fprintf(stderr, "%s\n", summary.FullReport().c_str());
   *initial_cost = summary.initial_cost;
   *final_cost = summary.final_cost;
+  // The inverse-depth lower bound is enforced by projection after the solve (as DSO clamps its
+  // inverse depths), not by Ceres's bound constraints: with bounds, every LM step becomes a
+  // projected line search with extra Jacobian evaluations (measured: 5 evaluations for 2
+  // iterations instead of 2-3), which doubles the cost of a window solve.
+  for (auto& p : points_) p->inverse_depth = std::max(p->inverse_depth, options_.min_inverse_depth);
   bool state_finite = true;
   for (const auto& kf : keyframes_) {
     for (double v : kf->pose) state_finite = state_finite && std::isfinite(v);
@@ -535,18 +540,21 @@ WindowResult WindowOptimizer::AddKeyframe(KeyframeData data) {
   return result;
 }
 
-// DSO's choice (FullSystem::flagFramesForMarginalization): a keyframe with < 5% of its points
-// left goes first; otherwise the one maximising sqrt(d(i, newest)) * sum_j 1 / (d(i, j) + eps),
-// d the distance between camera centres: far from the newest, close to the others. The newest
-// two never leave.
+// DSO's choice (FullSystem::flagFramesForMarginalization): a keyframe with < 5% of its selected
+// points still observed in the newest keyframe goes first (oldest first); otherwise the one
+// maximising sqrt(d(i, newest)) * sum_j 1 / (d(i, j) + eps), d the distance between camera
+// centres: far from the newest, close to the others. The newest two never leave.
 int WindowOptimizer::ChooseKeyframeToMarginalize() const {
   const int n = num_keyframes();
-  std::map<int, int> live;
-  for (const auto& p : points_) ++live[p->host_id];
+  const int newest_id = keyframes_.back()->id;
+  std::map<int, int> in_newest;
+  for (const auto& p : points_) {
+    if (p->residuals.count(newest_id)) ++in_newest[p->host_id];
+  }
   for (int i = 0; i < n - 2; ++i) {
     const KeyframeState& kf = *keyframes_[i];
     const double fraction =
-        kf.num_selected > 0 ? static_cast<double>(live[kf.id]) / kf.num_selected : 0.0;
+        kf.num_selected > 0 ? static_cast<double>(in_newest[kf.id]) / kf.num_selected : 0.0;
     if (fraction < options_.min_point_fraction) return i;
   }
   std::vector<Eigen::Vector3d> centres;

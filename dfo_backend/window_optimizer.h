@@ -15,13 +15,14 @@
 //     depth are skipped); create a residual block (dfo_backend/feature_metric_cost.h) from every
 //     point to every other window keyframe in which its patch is visible, old points included.
 //  2. Solve with Ceres: poses on the SE(3) manifold (pose_manifold.h), the oldest keyframe held
-//     constant (gauge), inverse depths bounded below by min_inverse_depth, Huber or Cauchy loss,
+//     constant (gauge), inverse depths bounded below by min_inverse_depth (projected after each solve), Huber or Cauchy loss,
 //     points eliminated first, optional priors; then drop, per target keyframe, the blocks whose
 //     cost exceeds outlier_gate_factor x the outlier_gate_percentile cost of that keyframe, and
 //     solve once more. A solve that fails or ends with a non-finite cost restores the state it
 //     started from (result.optimized = false, result.message says why).
 //  3. If the window holds more than max_keyframes, one keyframe leaves (never the newest two):
-//     the oldest with fewer than min_point_fraction of its points left, else DSO's distance
+//     the oldest with fewer than min_point_fraction of its selected points still observed in
+//     the newest keyframe, else DSO's distance
 //     choice (far from the newest, close to the others). Its points with at least
 //     min_marginalized_observations blocks are marginalised into a prior on the kept poses, its
 //     other points are dropped, blocks of other points into it are dropped
@@ -74,7 +75,8 @@ struct WindowOptions {
   double max_solver_time_s = 0.2;
   // Ceres threads; >= 1 (1 gives run-to-run identical results).
   int num_threads = 2;
-  // Lower bound of every inverse depth in 1/m (1e-3: points may lie up to 1 km away); >= 0.
+  // Lower bound of every inverse depth in 1/m (1e-3: points may lie up to 1 km away), enforced
+  // by projection after each solve; >= 0.
   double min_inverse_depth = 1e-3;
   // Weight of the prior pulling each inverse depth toward its keyframe depth, on the relative
   // error (rho - rho0) / rho0; >= 0 (0 = off). Also fixes the scale gauge when > 0.
@@ -87,8 +89,8 @@ struct WindowOptions {
   // target keyframe; percentile in (0, 1], factor >= 1.
   double outlier_gate_percentile = 0.9;
   double outlier_gate_factor = 2.0;
-  // A keyframe with fewer than this fraction of its selected points left leaves first (DSO: 5%);
-  // in [0, 1].
+  // A keyframe with fewer than this fraction of its selected points observed in the newest
+  // keyframe leaves first (DSO: 5%); in [0, 1].
   double min_point_fraction = 0.05;
   // Points of the leaving keyframe with at least this many residual blocks are marginalised, the
   // rest dropped; >= 1.

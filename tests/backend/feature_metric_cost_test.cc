@@ -73,17 +73,20 @@ struct FeatureMetricTwin {
         const Eigen::Matrix<T, 3, 1> x_t = qt.conjugate() * (qh * x_h + th - tt);
         const T px = T(cam.fx) * x_t.x() / x_t.z() + T(cam.cx);
         const T py = T(cam.fy) * x_t.y() / x_t.z() + T(cam.cy);
-        const double sx = Scalar(px), sy = Scalar(py);
-        const bool inside = Scalar(x_t.z()) > 0 && sx >= 0 && sy >= 0 && sx <= w - 1.0 &&
-                            sy <= h - 1.0;
+        const bool in_front = Scalar(x_t.z()) > 0;
+        // Clamped to the border outside the image (constant, so derivative 0 along that axis).
+        T cx = px, cy = py;
+        if (!(Scalar(px) >= 0 && Scalar(px) <= w - 1.0)) cx = T(Scalar(px) < 0 ? 0.0 : w - 1.0);
+        if (!(Scalar(py) >= 0 && Scalar(py) <= h - 1.0)) cy = T(Scalar(py) < 0 ? 0.0 : h - 1.0);
+        const double sx = Scalar(cx), sy = Scalar(cy);
         for (int c = 0; c < target->channels; ++c) {
-          if (!inside) {
-            residuals[c * kk + k] = T(0);
+          if (!in_front) {
+            residuals[c * kk + k] = T(host_patch[c * kk + k]);
             continue;
           }
           const int x0 = std::min(static_cast<int>(std::floor(sx)), w - 2);
           const int y0 = std::min(static_cast<int>(std::floor(sy)), h - 2);
-          const T ax = px - T(x0), ay = py - T(y0);
+          const T ax = cx - T(x0), ay = cy - T(y0);
           const double v00 = target->At(c, x0, y0), v10 = target->At(c, x0 + 1, y0);
           const double v01 = target->At(c, x0, y0 + 1), v11 = target->At(c, x0 + 1, y0 + 1);
           const T value = (T(1) - ay) * ((T(1) - ax) * v00 + ax * v10) +
@@ -219,7 +222,7 @@ TEST(FeatureMetricCostTest, IdenticalViewsGiveZeroResidual) {
   for (double v : r) EXPECT_NEAR(v, 0.0, 1e-6);
 }
 
-TEST(FeatureMetricCostTest, OutOfViewPixelsGiveZeroRowsAndNaNFails) {
+TEST(FeatureMetricCostTest, OutOfViewPixelsAreClampedNotFreeAndNaNFails) {
   CostFixture fx(21);
   // Target turned 90 degrees: nothing of the patch is visible.
   const SE3d turned = PoseFromParameters(fx.host_pose) *
@@ -232,8 +235,22 @@ TEST(FeatureMetricCostTest, OutOfViewPixelsGiveZeroRowsAndNaNFails) {
   std::vector<double> r(n), jh(n * 6), jt(n * 6), jr(n);
   ASSERT_TRUE(cost.EvaluateTangent(fx.host_pose, target, fx.rho, r.data(), jh.data(), jt.data(),
                                    jr.data()));
-  for (double v : r) EXPECT_EQ(v, 0.0);
-  for (double v : jh) EXPECT_EQ(v, 0.0);
+  // Not a zero residual (that would reward leaving the view), and no pose derivative along the
+  // clamped axis: the 90 degree turn leaves every pixel clamped in x.
+  double sq = 0.0;
+  for (double v : r) sq += v * v;
+  EXPECT_GT(sq, 0.1);
+  for (int row = 0; row < n; ++row) {
+    // Only d/dy terms can remain; compare with the autodiff twin for the exact values.
+    EXPECT_TRUE(std::isfinite(jh[6 * row]));
+  }
+  auto* twin = new FeatureMetricTwin{&fx.target, fx.host.camera, fx.uv, 3, *fx.patch};
+  ceres::AutoDiffCostFunction<FeatureMetricTwin, ceres::DYNAMIC, 7, 7, 1> autodiff(twin, n);
+  std::vector<double> r_auto(n), ah(n * 7), at(n * 7), ar(n);
+  double* jac[] = {ah.data(), at.data(), ar.data()};
+  const double* params[] = {fx.host_pose, target, &fx.rho};
+  ASSERT_TRUE(autodiff.Evaluate(params, r_auto.data(), jac));
+  for (int i = 0; i < n; ++i) EXPECT_NEAR(r[i], r_auto[i], 1e-9);
   FeatureLevel nan_level = fx.target;
   std::fill(nan_level.data.begin(), nan_level.data.end(), std::nanf(""));
   FeatureMetricCost nan_cost(&nan_level, fx.host.camera, fx.uv, 3, fx.patch);

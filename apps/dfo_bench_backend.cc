@@ -1,0 +1,228 @@
+// dfo_bench_backend: speed of the sliding-window backend (feature-metric BA plus
+// marginalisation per keyframe), printed; nothing is asserted (tests never time anything).
+//
+//   dfo_bench_backend [--keyframes N] [--step S] [--threads T] [--window W] [--points P]
+//                     [--solver sparse_schur|dense_schur] [--no-marginalization] [--seed S]
+//
+// Renders N keyframes of the synthetic street sequence (416 x 128, every S-th frame) in memory
+// first (not timed), computes the frontend's hand-made features (intensity + gradients, 4 levels)
+// and ground-truth depth pyramids, perturbs each keyframe pose as a frontend estimate would be
+// (1 cm, 0.1 deg per axis, seeded), then feeds them to WindowOptimizer with the given options
+// (defaults otherwise: window 7, level 1, 3 x 3 patches, 300 points) and prints the median and
+// 90th percentile of the BA time, the marginalisation time and their sum per keyframe, the window
+// size, and the keyframe pose error against ground truth.
+#include <algorithm>
+#include <cmath>
+#include <cstdio>
+#include <cstdlib>
+#include <exception>
+#include <random>
+#include <string>
+#include <vector>
+
+#include "apps/common/run_stats.h"
+#include "dfo_backend/window_optimizer.h"
+#include "dfo_core/error.h"
+#include "dfo_core/synthetic/synthetic_sequence.h"
+#include "dfo_frontend/depth_source.h"
+#include "dfo_frontend/feature_source.h"
+
+namespace dfo {
+namespace {
+
+using apps::Percentile;
+
+constexpr const char* kUsage = R"(usage: dfo_bench_backend [options]
+
+Times dfo's sliding-window BA plus marginalisation per keyframe on the synthetic street sequence
+(416 x 128, hand-made features, ground-truth depth). Prints figures; asserts nothing.
+
+options:
+  --keyframes N          keyframes (default 40)
+  --step S               frames between keyframes (default 3)
+  --threads T            WindowOptions::num_threads (default 2)
+  --window W             WindowOptions::max_keyframes (default 7)
+  --points P             WindowOptions::points_per_keyframe (default 300)
+  --iterations I         WindowOptions::max_iterations (default: the option's default)
+  --time-limit S         WindowOptions::max_solver_time_s (default: the option's default)
+  --depth-prior W        WindowOptions::depth_prior_weight (default 0)
+  --level L              WindowOptions::pyramid_level (default 1)
+  --solver NAME          sparse_schur (default) or dense_schur
+  --no-marginalization   drop instead of marginalising
+  --seed S               synthetic sequence seed (default 1)
+  --verbose              one line per keyframe (times, costs, window error)
+  --help                 this text
+)";
+
+struct Args {
+  int keyframes = 40;
+  int step = 3;
+  int seed = 1;
+  bool verbose = false;
+  WindowOptions window;
+};
+
+int ParseInt(const std::string& flag, const char* value) {
+  char* end = nullptr;
+  const long v = std::strtol(value, &end, 10);
+  if (end == value || *end != '\0') throw InputError(flag + ": '" + value + "' is not an integer");
+  return static_cast<int>(v);
+}
+
+Args Parse(int argc, char** argv) {
+  Args args;
+  for (int i = 1; i < argc; ++i) {
+    const std::string flag = argv[i];
+    auto next = [&]() -> const char* {
+      if (i + 1 >= argc) throw InputError(flag + " needs a value");
+      return argv[++i];
+    };
+    if (flag == "--help") {
+      std::printf("%s", kUsage);
+      std::exit(0);
+    } else if (flag == "--keyframes") {
+      args.keyframes = ParseInt(flag, next());
+    } else if (flag == "--step") {
+      args.step = ParseInt(flag, next());
+    } else if (flag == "--threads") {
+      args.window.num_threads = ParseInt(flag, next());
+    } else if (flag == "--window") {
+      args.window.max_keyframes = ParseInt(flag, next());
+    } else if (flag == "--points") {
+      args.window.points_per_keyframe = ParseInt(flag, next());
+    } else if (flag == "--iterations") {
+      args.window.max_iterations = ParseInt(flag, next());
+    } else if (flag == "--time-limit") {
+      args.window.max_solver_time_s = std::atof(next());
+    } else if (flag == "--depth-prior") {
+      args.window.depth_prior_weight = std::atof(next());
+    } else if (flag == "--level") {
+      args.window.pyramid_level = ParseInt(flag, next());
+    } else if (flag == "--solver") {
+      args.window.linear_solver = next();
+    } else if (flag == "--no-marginalization") {
+      args.window.marginalization = false;
+    } else if (flag == "--verbose") {
+      args.verbose = true;
+    } else if (flag == "--seed") {
+      args.seed = ParseInt(flag, next());
+    } else {
+      throw InputError("unknown option '" + flag + "' (see --help)");
+    }
+  }
+  if (args.keyframes < 2 || args.step < 1) throw InputError("--keyframes >= 2 and --step >= 1");
+  args.window.Check();
+  return args;
+}
+
+int Run(const Args& args) {
+  SyntheticOptions synthetic;
+  synthetic.seed = static_cast<uint64_t>(args.seed);
+  synthetic.num_frames = (args.keyframes - 1) * args.step + 1;
+  const SyntheticSequence sequence(synthetic);
+  HandmadeFeatureSource features;
+  auto depth = MakeDepthSource("gt");
+  std::mt19937 rng(7);
+  std::normal_distribution<double> noise(0.0, 1.0);
+  std::printf("preparing %d keyframes (every %d frames of %d x %d)...\n", args.keyframes,
+              args.step, synthetic.width, synthetic.height);
+  std::vector<KeyframeData> keyframes;
+  for (int k = 0; k < args.keyframes; ++k) {
+    const SyntheticFrame rendered = sequence.RenderFrame(k * args.step, 2);
+    Frame frame;
+    frame.index = rendered.index;
+    frame.timestamp_ns = rendered.timestamp_ns;
+    frame.image = rendered.gray;
+    frame.depth_m = rendered.depth;
+    frame.camera = sequence.camera();
+    KeyframeData kf;
+    kf.frame_index = frame.index;
+    kf.timestamp_ns = frame.timestamp_ns;
+    kf.features = features.Compute(frame, 4);
+    kf.depth = depth->Compute(frame, 4);
+    Vector6d xi;
+    for (int i = 0; i < 3; ++i) xi(i) = k == 0 ? 0.0 : 0.01 * noise(rng);
+    for (int i = 3; i < 6; ++i) xi(i) = k == 0 ? 0.0 : 0.1 * M_PI / 180.0 * noise(rng);
+    kf.world_from_cam = rendered.world_from_cam * SE3d::Exp(xi);
+    keyframes.push_back(std::move(kf));
+  }
+
+  WindowOptimizer window(args.window);
+  std::vector<double> solve_ms, marg_ms, total_ms;
+  int failures = 0, max_points = 0, max_blocks = 0;
+  double last_trans_err = 0.0, last_rot_err = 0.0;
+  for (KeyframeData& kf : keyframes) {
+    const WindowResult result = window.AddKeyframe(std::move(kf));
+    if (window.num_keyframes() < 2) continue;
+    if (!result.optimized) ++failures;
+    // Steady state only: the window is full from here on.
+    if (result.marginalized_frame_index >= 0) {
+      solve_ms.push_back(result.solve_ms);
+      marg_ms.push_back(result.marginalization_ms);
+      total_ms.push_back(result.solve_ms + result.marginalization_ms);
+    }
+    max_points = std::max(max_points, result.num_points);
+    max_blocks = std::max(max_blocks, result.num_residual_blocks);
+    // Pose error of the window relative to its oldest keyframe (the gauge).
+    const auto& poses = result.keyframe_poses;
+    const SE3d gt_ref = sequence.WorldFromCam(poses.front().first);
+    last_trans_err = last_rot_err = 0.0;
+    for (const auto& [index, pose] : poses) {
+      const SE3d est_rel = poses.front().second.Inverse() * pose;
+      const SE3d gt_rel = gt_ref.Inverse() * sequence.WorldFromCam(index);
+      const SE3d err = gt_rel.Inverse() * est_rel;
+      last_trans_err = std::max(last_trans_err, err.translation().norm());
+      last_rot_err = std::max(last_rot_err, err.so3().Angle() * 180.0 / M_PI);
+    }
+    if (args.verbose) {
+      std::printf("keyframe %4d: %s cost %10.1f -> %10.1f  BA %6.1f ms  marg %5.1f ms  "
+                  "points %5d  blocks %6d  gated %4d  window error %.4f m %.4f deg %s\n",
+                  poses.back().first, result.optimized ? "ok  " : "FAIL", result.initial_cost,
+                  result.final_cost, result.solve_ms, result.marginalization_ms,
+                  result.num_points, result.num_residual_blocks, result.num_gated_blocks,
+                  last_trans_err, last_rot_err, result.message.c_str());
+      if (std::getenv("DFO_BENCH_PER_KEYFRAME")) {
+        for (const auto& [index, pose] : poses) {
+          const SE3d err = sequence.WorldFromCam(index).Inverse() * pose;
+          std::printf("    %d: %.3f m %.3f deg\n", index, err.translation().norm(),
+                      err.so3().Angle() * 180 / M_PI);
+        }
+      }
+    }
+  }
+  const WindowOptions& o = args.window;
+  std::printf("window %d, level %d, %dx%d patches, %d points/keyframe, %s, %d threads, "
+              "marginalization %s, max %d iterations\n",
+              o.max_keyframes, o.pyramid_level, o.patch_size, o.patch_size,
+              o.points_per_keyframe, o.linear_solver.c_str(), o.num_threads,
+              o.marginalization ? "on" : "off", o.max_iterations);
+  if (total_ms.empty()) {
+    std::printf("the window never filled; use more --keyframes\n");
+    return 0;
+  }
+  std::printf("per keyframe (%zu full-window steps):\n", total_ms.size());
+  std::printf("  BA (both solves)    median %7.1f ms   p90 %7.1f ms\n", Percentile(solve_ms, 50),
+              Percentile(solve_ms, 90));
+  std::printf("  marginalisation     median %7.1f ms   p90 %7.1f ms\n", Percentile(marg_ms, 50),
+              Percentile(marg_ms, 90));
+  std::printf("  BA + marginalisation median %6.1f ms   p90 %7.1f ms\n", Percentile(total_ms, 50),
+              Percentile(total_ms, 90));
+  std::printf("window size: at most %d points, %d residual blocks; %d failed solves\n",
+              max_points, max_blocks, failures);
+  std::printf("last window vs ground truth (relative to its oldest keyframe): max %.4f m, "
+              "%.4f deg\n",
+              last_trans_err, last_rot_err);
+  return 0;
+}
+
+}  // namespace
+}  // namespace dfo
+
+int main(int argc, char** argv) {
+  try {
+    return dfo::Run(dfo::Parse(argc, argv));
+  } catch (const std::exception& e) {
+    std::fprintf(stderr, "dfo_bench_backend: %s\n", e.what());
+    return 1;
+  }
+}
