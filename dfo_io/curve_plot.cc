@@ -119,8 +119,24 @@ void WriteCurvePlot(const std::string& path, const std::vector<CurveSeries>& ser
     cv::line(img, {px(x), top}, {px(x), top + ph}, grid, 1);
     cv::putText(img, Format(x), {px(x) - 15, top + ph + 18}, kFont, 0.4, text, 1, cv::LINE_AA);
   }
-  const double ys = options.log_y ? 1.0 : NiceStep(y_max - y_min, 6);
-  for (double t = std::ceil(y_min / ys) * ys; t <= y_max + 1e-9 * ys; t += ys) {
+  std::vector<double> y_ticks;  // in plotted units (log10 on a log axis)
+  if (options.log_y) {
+    // Decades; with less than two decades in view also 2 and 5 times them.
+    const bool fine = y_max - y_min < 2.0;
+    for (double k = std::floor(y_min); k <= std::ceil(y_max); k += 1.0) {
+      for (const double m : {1.0, 2.0, 5.0}) {
+        if (m != 1.0 && !fine) continue;
+        const double t = k + std::log10(m);
+        if (t >= y_min && t <= y_max) y_ticks.push_back(t);
+      }
+    }
+  } else {
+    const double ys = NiceStep(y_max - y_min, 6);
+    for (double t = std::ceil(y_min / ys) * ys; t <= y_max + 1e-9 * ys; t += ys) {
+      y_ticks.push_back(t);
+    }
+  }
+  for (const double t : y_ticks) {
     cv::line(img, {left, py_t(t)}, {left + pw, py_t(t)}, grid, 1);
     const std::string label = options.log_y ? Format(std::pow(10.0, t)) : Format(t);
     cv::putText(img, label, {5, py_t(t) + 4}, kFont, 0.4, text, 1, cv::LINE_AA);
@@ -158,8 +174,8 @@ void WriteCurvePlot(const std::string& path, const std::vector<CurveSeries>& ser
     }
     // Legend entry.
     const int ly = top + 18 + 20 * static_cast<int>(k);
-    cv::line(img, {left + pw - 170, ly - 4}, {left + pw - 145, ly - 4}, colour, 3);
-    cv::putText(img, series[k].name, {left + pw - 138, ly}, kFont, 0.45, text, 1, cv::LINE_AA);
+    cv::line(img, {left + pw - 230, ly - 4}, {left + pw - 205, ly - 4}, colour, 3);
+    cv::putText(img, series[k].name, {left + pw - 198, ly}, kFont, 0.45, text, 1, cv::LINE_AA);
   }
   const std::filesystem::path parent = std::filesystem::path(path).parent_path();
   std::error_code ec;

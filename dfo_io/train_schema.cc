@@ -86,7 +86,8 @@ ConfigSchema BuildTrainSchema() {
   s.AddDouble("gn.min_gradient", 0.05, "Smallest feature gradient of a selected point").Min(0);
   s.AddBool("gn.outlier_rule", true, "Apply the paper's 0.5 (median + max) outlier rule");
   s.AddBool("gn.use_masks", true,
-            "Select points on the target's soft masks (> 0.5) and weight patches by them");
+            "Weight the alignment's patches by the target's soft masks (selection stays the "
+            "tracker's gradient rule)");
   s.AddBool("gn.source_feature_grad", false,
             "Backpropagate through the source views' feature network (slower)");
 

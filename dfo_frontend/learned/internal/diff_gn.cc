@@ -385,7 +385,11 @@ DiffGnResult DifferentiableAlign(const AlignmentView& ref, const AlignmentView& 
   }
   // Point selection by the tracker itself on the detached maps: identical points by construction.
   Tracker tracker(options);
-  tracker.SetReference(ToFeaturePyramid(ref), ToDepthPyramid(ref));
+  FeaturePyramid selection = ToFeaturePyramid(ref);
+  if (!ref.select_on_masks) {
+    for (FeatureLevel& level : selection.levels) level.mask.clear();
+  }
+  tracker.SetReference(selection, ToDepthPyramid(ref));
 
   DiffGnResult result;
   result.levels.assign(num_levels, DiffGnLevelStats());

@@ -19,7 +19,10 @@
 //    tracker's iteration limit or when |delta| (translation / mean depth) < its threshold;
 //  - between levels the translation is rescaled by mean_depth(l) / mean_depth(l + 1).
 // w_i is 1, or the reference's soft attention mask at the patch centre when masks are given (the
-// mask branch then receives gradients through the pose).
+// mask branch then receives gradients through the pose; the weighted solve does not depend on a
+// common scale of the weights). Points are selected on the masks only with select_on_masks: in
+// training with soft masks near the target density that leaves too few points (measured: every
+// alignment failed once the AE stage had pushed the masks to rho).
 // Residuals are evaluated in float (as the tracker); geometry, Jacobians and the 6 x 6 solves in
 // double.
 #ifndef DFO_FRONTEND_LEARNED_INTERNAL_DIFF_GN_H_
@@ -60,7 +63,10 @@ struct AlignmentView {
   std::vector<torch::Tensor> features;
   std::vector<PinholeCamera> cameras;
   std::vector<torch::Tensor> depth;  // reference only
-  std::vector<torch::Tensor> masks;  // reference only; empty = no weights, no mask selection
+  std::vector<torch::Tensor> masks;  // reference only; empty = no weights
+  // Reference only: select points only where the mask exceeds 0.5 (the tracker's mask
+  // selection); false: the tracker's gradient selection, the masks only weight the patches.
+  bool select_on_masks = false;
 };
 
 // Per-level diagnostics of one alignment.

@@ -79,8 +79,9 @@ struct TrainingOptions {
   // The differentiable alignment: the tracker's options (its num_levels must equal
   // network.num_levels, its patch_size network.patch_sizes[0]); training uses short unrolls.
   TrackerOptions gn;
-  // Weight the GN's patches by the target's soft masks and select points only where the mask is
-  // above 0.5 (the inference frontend selects on the hard mask). false: gradient selection only.
+  // Weight the GN's patches by the target's soft (Gumbel-sigmoid) masks, so that the attention
+  // branch learns which points help the alignment; points are selected by the tracker's gradient
+  // rule either way. false: unweighted.
   bool gn_use_masks = true;
   // Backpropagate through the source views' feature network (false: sources are computed without
   // gradients, which saves about a third of the step; the target branch still learns).

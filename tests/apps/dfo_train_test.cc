@@ -1,0 +1,154 @@
+// Runs the real dfo_train executable (DFO_TRAIN_EXE) with configs/train_tiny.yaml on a short
+// sequence written by dfo_synth: a run stopped by SIGTERM leaves a checkpoint and resumes where it
+// stopped (iteration counter and loss curve continue), files are written, --write-depth feeds
+// `dfo_eval depth`, and command-line mistakes are named.
+#include <gtest/gtest.h>
+#include <sys/wait.h>
+
+#include <cstdio>
+#include <filesystem>
+#include <fstream>
+#include <sstream>
+#include <string>
+#include <vector>
+
+#include "tests/support/test_support.h"
+
+#if defined(DFO_TRAIN_EXE) && defined(DFO_SYNTH_EXE) && defined(DFO_EVAL_EXE)
+
+namespace dfo {
+namespace {
+
+namespace fs = std::filesystem;
+
+struct CommandResult {
+  int status = -1;
+  std::string out;
+};
+
+// Runs a shell command line, stdout and stderr together.
+CommandResult Shell(const std::string& command) {
+  CommandResult result;
+  FILE* pipe = popen((command + " 2>&1").c_str(), "r");
+  if (pipe == nullptr) return result;
+  char buf[4096];
+  size_t n = 0;
+  while ((n = fread(buf, 1, sizeof(buf), pipe)) > 0) result.out.append(buf, n);
+  const int wait_status = pclose(pipe);
+  result.status = WIFEXITED(wait_status) ? WEXITSTATUS(wait_status) : -1;
+  return result;
+}
+
+std::vector<std::string> ReadLines(const std::string& path) {
+  std::ifstream in(path);
+  std::vector<std::string> lines;
+  std::string line;
+  while (std::getline(in, line)) {
+    if (!line.empty()) lines.push_back(line);
+  }
+  return lines;
+}
+
+class DfoTrainAppTest : public ::testing::Test {
+ protected:
+  static void SetUpTestSuite() {
+    data_ = new std::string(test::MakeTempDir("dfo_train_data"));
+    const CommandResult r = Shell(std::string(DFO_SYNTH_EXE) + " --output " + *data_ +
+                                  " --seed 9 --frames 8 --threads 1");
+    ASSERT_EQ(r.status, 0) << r.out;
+  }
+  static void TearDownTestSuite() { delete data_; }
+  static std::string Train(const std::string& args) {
+    return std::string(DFO_TRAIN_EXE) + " --config " + test::SourceDir() +
+           "/configs/train_tiny.yaml --set 'data.sequences=[" + *data_ + "/sequences/00]' " +
+           args;
+  }
+  static std::string* data_;
+};
+std::string* DfoTrainAppTest::data_ = nullptr;
+
+TEST_F(DfoTrainAppTest, SigtermLeavesACheckpointAndResumeContinuesTheCurve) {
+  const std::string out = test::MakeTempDir("dfo_train_app");
+  const std::string log = out + "/log.txt";
+  // Start a long run, wait for iteration 3 in its log, stop it with SIGTERM.
+  const std::string script = Train("--set train.iterations=100000 --output " + out + "/run") +
+                             " > " + log + " 2>&1 & p=$!; i=0; while ! grep -q 'it 3/' " + log +
+                             " && [ $i -lt 1200 ]; do sleep 0.1; i=$((i+1)); done; kill -TERM $p;"
+                             " wait $p; echo rc=$?";
+  const CommandResult stopped = Shell(script);  // popen runs it with sh -c
+  ASSERT_NE(stopped.out.find("rc=0"), std::string::npos) << stopped.out;
+  std::ifstream in(log);
+  std::stringstream ss;
+  ss << in.rdbuf();
+  const std::string text = ss.str();
+  const size_t at = text.find("stopped at iteration ");
+  ASSERT_NE(at, std::string::npos) << text;
+  const int stopped_at = std::stoi(text.substr(at + 21));
+  EXPECT_GE(stopped_at, 3);
+  ASSERT_TRUE(fs::exists(out + "/run/checkpoint.pt"));
+  ASSERT_FALSE(fs::exists(out + "/run/model.dfo"));  // stopped runs write no model
+  EXPECT_EQ(static_cast<int>(ReadLines(out + "/run/losses.csv").size()), stopped_at + 1);
+  const std::vector<std::string> before = ReadLines(out + "/run/losses.csv");
+
+  // Without --resume the run refuses to overwrite it.
+  const CommandResult refused =
+      Shell(Train("--set train.iterations=100000 --output " + out + "/run"));
+  EXPECT_EQ(refused.status, 2);
+  EXPECT_NE(refused.out.find("pass --resume"), std::string::npos) << refused.out;
+
+  // Resume to stopped_at + 3 iterations.
+  const int target = stopped_at + 3;
+  const CommandResult resumed = Shell(Train("--set train.iterations=" + std::to_string(target) +
+                                            " --output " + out + "/run --resume"));
+  ASSERT_EQ(resumed.status, 0) << resumed.out;
+  EXPECT_NE(resumed.out.find("resuming at iteration " + std::to_string(stopped_at)),
+            std::string::npos)
+      << resumed.out;
+  const std::vector<std::string> after = ReadLines(out + "/run/losses.csv");
+  ASSERT_EQ(static_cast<int>(after.size()), target + 1);  // header + one row per iteration
+  for (size_t i = 0; i < before.size(); ++i) EXPECT_EQ(after[i], before[i]) << "row " << i;
+  EXPECT_EQ(after.back().substr(0, after.back().find(',')), std::to_string(target));
+  EXPECT_TRUE(fs::exists(out + "/run/model.dfo"));
+  EXPECT_TRUE(fs::exists(out + "/run/losses.png"));
+  EXPECT_TRUE(fs::exists(out + "/run/config_effective.yaml"));
+
+  // Depth PNGs for dfo_eval depth.
+  const CommandResult depth = Shell(Train("--output " + out + "/run --write-depth " + out +
+                                          "/depth --sequence " + *data_ + "/sequences/00"));
+  ASSERT_EQ(depth.status, 0) << depth.out;
+  const CommandResult eval = Shell(std::string(DFO_EVAL_EXE) + " depth --gt " + *data_ +
+                                   "/sequences/00/depth_0 --pred " + out +
+                                   "/depth --median-scaling --json");
+  ASSERT_EQ(eval.status, 0) << eval.out;
+  EXPECT_NE(eval.out.find("abs_rel"), std::string::npos) << eval.out;
+  // Export from the checkpoint.
+  const CommandResult exported = Shell(Train("--output " + out + "/run --export --model " + out +
+                                             "/exported.dfo"));
+  ASSERT_EQ(exported.status, 0) << exported.out;
+  EXPECT_TRUE(fs::exists(out + "/exported.dfo"));
+}
+
+TEST_F(DfoTrainAppTest, CommandLineMistakesAreNamed) {
+  const std::string out = test::MakeTempDir("dfo_train_cli");
+  CommandResult r = Shell(std::string(DFO_TRAIN_EXE) + " --bogus");
+  EXPECT_EQ(r.status, 2);
+  EXPECT_NE(r.out.find("unknown argument '--bogus'"), std::string::npos) << r.out;
+  r = Shell(Train(""));
+  EXPECT_EQ(r.status, 2);
+  EXPECT_NE(r.out.find("--output"), std::string::npos) << r.out;
+  r = Shell(Train("--set train.batch_sise=2 --output " + out));
+  EXPECT_EQ(r.status, 1);
+  EXPECT_NE(r.out.find("batch_size"), std::string::npos) << r.out;
+  r = Shell(std::string(DFO_TRAIN_EXE) + " --config " + test::SourceDir() +
+            "/configs/train_tiny.yaml --output " + out);
+  EXPECT_EQ(r.status, 1);
+  EXPECT_NE(r.out.find("data.sequences is empty"), std::string::npos) << r.out;
+  r = Shell(Train("--output " + out + "/none --export"));
+  EXPECT_EQ(r.status, 1);
+  EXPECT_NE(r.out.find("no checkpoint"), std::string::npos) << r.out;
+}
+
+}  // namespace
+}  // namespace dfo
+
+#endif
