@@ -38,10 +38,25 @@ struct PoseErrors {
   double max_rot_deg = 0.0;
 };
 
-PoseErrors Errors(const std::vector<std::pair<int, SE3d>>& poses) {
+// Errors after the one gauge freedom a fixed first keyframe leaves in monocular BA, the scale:
+// camera centres are scaled about the first keyframe's (at ground truth) by the least-squares
+// factor, returned in *scale.
+PoseErrors Errors(const std::vector<std::pair<int, SE3d>>& poses, double* scale = nullptr) {
+  const Eigen::Vector3d origin = poses.front().second.translation();
+  double num = 0.0, den = 0.0;
+  for (const auto& [index, pose] : poses) {
+    const Eigen::Vector3d est = pose.translation() - origin;
+    const Eigen::Vector3d gt = Sequence().WorldFromCam(index).translation() - origin;
+    num += gt.dot(est);
+    den += est.squaredNorm();
+  }
+  const double s = den > 0.0 ? num / den : 1.0;
+  if (scale) *scale = s;
   PoseErrors e;
   for (const auto& [index, pose] : poses) {
-    const SE3d err = Sequence().WorldFromCam(index).Inverse() * pose;
+    SE3d scaled = pose;
+    scaled.translation() = origin + s * (pose.translation() - origin);
+    const SE3d err = Sequence().WorldFromCam(index).Inverse() * scaled;
     e.max_trans_m = std::max(e.max_trans_m, err.translation().norm());
     e.max_rot_deg = std::max(e.max_rot_deg, err.so3().Angle() * 180.0 / M_PI);
   }
@@ -74,15 +89,18 @@ TEST(WindowOptimizerTest, PerturbedPosesAndDepthsReturnToGroundTruth) {
     }
   }
   ASSERT_EQ(result.keyframe_poses.size(), 4u);
-  const PoseErrors before = Errors(perturbed);
-  const PoseErrors after = Errors(result.keyframe_poses);
-  // Bounds: noise-free, ground-truth-initialised windows of this sequence end within ~1 cm and
-  // ~0.04 deg (the feature-metric optimum is not exactly the rendering's pose: interpolation at
-  // edges, silhouettes); the perturbation is 5-10x larger than that.
+  double scale_before = 0.0, scale_after = 0.0;
+  const PoseErrors before = Errors(perturbed, &scale_before);
+  const PoseErrors after = Errors(result.keyframe_poses, &scale_after);
+  // Bounds: ground-truth-initialised windows of this sequence (5% depth noise) end within ~1 cm
+  // and ~0.04 deg (the feature-metric optimum is not exactly the rendering's pose: interpolation
+  // at edges, silhouettes); the scale is a gauge freedom without a depth prior, so the part of
+  // the perturbation along it stays (measured: up to ~1%) and is aligned away.
   EXPECT_GT(before.max_rot_deg, 0.5);
   EXPECT_LT(after.max_rot_deg, 0.1) << "before " << before.max_rot_deg;
   EXPECT_LT(after.max_trans_m, 0.03) << "before " << before.max_trans_m;
   EXPECT_LT(after.max_trans_m, 0.5 * before.max_trans_m);
+  EXPECT_NEAR(scale_after, 1.0, 0.03);
 }
 
 TEST(WindowOptimizerTest, WindowStaysBoundedOverALongRunAndMarginalizes) {
