@@ -11,6 +11,7 @@
 #include <chrono>
 #include <cmath>
 #include <cstdio>
+#include <cstdlib>
 #include <fstream>
 #include <sstream>
 
@@ -301,6 +302,8 @@ StepRecord Trainer::JointStep(const Batch& batch, int iteration) {
   at::Generator gen =
       at::make_generator<at::CPUGeneratorImpl>(StepSeed(options_.seed, iteration, 1));
 
+  using Clock = std::chrono::steady_clock;
+  const auto t0 = Clock::now();
   const DepthNetOutput raw_depth = networks_->depth->forward(batch.target);
   // Scale gauge: monocular snippets leave the depth scale unobservable (the alignment's
   // translation scales with it), so the depths used below are normalised to a batch mean of
@@ -331,6 +334,7 @@ StepRecord Trainer::JointStep(const Batch& batch, int iteration) {
     for (int s = 0; s < 2; ++s) source_z[s].push_back(ZScore(sources[s].features[l].contiguous()));
   }
 
+  const auto t1 = Clock::now();
   // Poses source_from_target by the differentiable alignment, per sample and source.
   std::vector<torch::Tensor> rotations[2], translations[2];
   int gn_ok = 0;
@@ -361,6 +365,7 @@ StepRecord Trainer::JointStep(const Batch& batch, int iteration) {
     }
   }
   rec.gn_ok_ratio = static_cast<double>(gn_ok) / (2.0 * n);
+  const auto t2 = Clock::now();
 
   // Appearance (minimum over the sources) and smoothness over the levels.
   const std::vector<torch::Tensor> targets = ImagePyramid(batch.target, levels);
@@ -406,9 +411,18 @@ StepRecord Trainer::JointStep(const Batch& batch, int iteration) {
                               options_.loss.ae_weight * reconstruction +
                               options_.loss.depth_prior_weight * scale_prior;
   optimizer_->zero_grad();
+  const auto t3 = Clock::now();
   total.backward();
   torch::nn::utils::clip_grad_norm_(networks_->parameters(), options_.max_grad_norm);
   optimizer_->step();
+  const auto t4 = Clock::now();
+  if (std::getenv("DFO_TRAIN_PROFILE") != nullptr) {
+    auto ms = [](Clock::time_point a, Clock::time_point b) {
+      return std::chrono::duration<double, std::milli>(b - a).count();
+    };
+    std::fprintf(stderr, "joint step ms: networks %.0f, alignment %.0f, warp+losses %.0f, "
+                 "backward+adam %.0f\n", ms(t0, t1), ms(t1, t2), ms(t2, t3), ms(t3, t4));
+  }
   rec.total = total.item<double>();
   rec.appearance = appearance.item<double>();
   rec.smoothness = smoothness.item<double>();
