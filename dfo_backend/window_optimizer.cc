@@ -5,8 +5,6 @@
 #include <algorithm>
 #include <array>
 #include <chrono>
-#include <cstdio>
-#include <cstdlib>
 #include <cmath>
 #include <map>
 #include <sstream>
@@ -290,7 +288,8 @@ void WindowOptimizer::RemovePointsWithoutResiduals() {
                 points_.end());
 }
 
-bool WindowOptimizer::Solve(double* initial_cost, double* final_cost, std::string* why) {
+bool WindowOptimizer::Solve(int max_iterations, double* initial_cost, double* final_cost,
+                            std::string* why) {
   // Snapshot to restore on failure.
   std::vector<std::array<double, kPoseAmbientSize>> pose_backup;
   for (const auto& kf : keyframes_) {
@@ -364,14 +363,13 @@ bool WindowOptimizer::Solve(double* initial_cost, double* final_cost, std::strin
                                           : ceres::SPARSE_SCHUR;
   solver_options.sparse_linear_algebra_library_type = ceres::SUITE_SPARSE;
   solver_options.linear_solver_ordering = ordering;
-  solver_options.max_num_iterations = options_.max_iterations;
+  solver_options.max_num_iterations = max_iterations;
   solver_options.max_solver_time_in_seconds = options_.max_solver_time_s;
   solver_options.num_threads = options_.num_threads;
   solver_options.logging_type = ceres::SILENT;
   solver_options.minimizer_progress_to_stdout = false;
   ceres::Solver::Summary summary;
   ceres::Solve(solver_options, &problem, &summary);
-  if (std::getenv("DFO_BA_DEBUG")) std::fprintf(stderr, "%s\n", summary.FullReport().c_str());
   *initial_cost = summary.initial_cost;
   *final_cost = summary.final_cost;
   // The inverse-depth lower bound is enforced by projection after the solve (as DSO clamps its
@@ -507,14 +505,14 @@ WindowResult WindowOptimizer::AddKeyframe(KeyframeData data) {
   } else {
     double c0 = 0.0, c1 = 0.0;
     std::string why;
-    if (Solve(&c0, &c1, &why)) {
+    if (Solve(options_.max_iterations, &c0, &c1, &why)) {
       result.optimized = true;
       result.initial_cost = c0;
       result.final_cost = c1;
       result.num_gated_blocks = GateOutliers();
       if (result.num_gated_blocks > 0) {
         double c2 = 0.0, c3 = 0.0;
-        if (Solve(&c2, &c3, &why)) {
+        if (Solve(std::max(1, options_.max_iterations / 2), &c2, &c3, &why)) {
           result.final_cost = c3;
         } else {
           result.message = "second solve: " + why;

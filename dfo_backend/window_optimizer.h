@@ -69,10 +69,12 @@ struct WindowOptions {
   double loss_scale = 0.5;
   // Ceres linear solver: "sparse_schur" (SuiteSparse) or "dense_schur".
   std::string linear_solver = "sparse_schur";
-  // Levenberg-Marquardt iterations per solve (there are up to two solves per keyframe); >= 1.
-  int max_iterations = 8;
+  // Levenberg-Marquardt iterations of the first solve per keyframe; the second solve (after the
+  // outlier gate) gets half as many, at least 1. >= 1. The window is re-solved at every
+  // keyframe, so few iterations per step add up (DSO: 6 Gauss-Newton iterations per keyframe).
+  int max_iterations = 5;
   // Wall-time limit of one solve in seconds; > 0.
-  double max_solver_time_s = 0.2;
+  double max_solver_time_s = 0.1;
   // Ceres threads; >= 1 (1 gives run-to-run identical results).
   int num_threads = 2;
   // Lower bound of every inverse depth in 1/m (1e-3: points may lie up to 1 km away), enforced
@@ -174,7 +176,7 @@ class WindowOptimizer {
   void SelectPoints(KeyframeState* keyframe);
   void ConnectNewKeyframe(KeyframeState* keyframe);
   // One Ceres solve over the current state; false with *why on failure (state untouched then).
-  bool Solve(double* initial_cost, double* final_cost, std::string* why);
+  bool Solve(int max_iterations, double* initial_cost, double* final_cost, std::string* why);
   int GateOutliers();
   int ChooseKeyframeToMarginalize() const;
   void MarginalizeKeyframe(int position, WindowResult* result);
