@@ -76,6 +76,8 @@ TEST(NetworksTest, OutputShapesPerLevel) {
     EXPECT_EQ(recon[l].sizes(), c10::IntArrayRef({2, 3, h, w})) << "level " << l;
     EXPECT_GE(f.features[l].min().item<float>(), 0.0f) << "ReLU then a positive kernel";
     EXPECT_GT(f.features[l].max().item<float>(), 0.0f) << "features are not all dead";
+    // Zero-initialised residual trunks keep untrained activations of order 1 (not ~1e2).
+    EXPECT_LT(f.features[l].max().item<float>(), 50.0f) << "level " << l;
     EXPECT_TRUE(torch::isfinite(f.mask_logits[l]).all().item<bool>());
     EXPECT_GE(recon[l].min().item<float>(), 0.0f);
     EXPECT_LE(recon[l].max().item<float>(), 1.0f);
@@ -230,7 +232,7 @@ TEST(NetworksTest, ChannelsLastGivesTheSameOutputs) {
       b->feature->forward(image.contiguous(torch::MemoryFormat::ChannelsLast));
   for (int l = 0; l < o.num_levels; ++l) {
     // Other summation orders in oneDNN's NHWC kernels: equal to float rounding (relative 1e-4
-    // of the level's largest value; untrained features reach ~1e2).
+    // of the level's largest value).
     const double depth_tol = 1e-4 * da.depth[l].abs().max().item<double>();
     const double feature_tol = 1e-4 * fa.features[l].abs().max().item<double>();
     EXPECT_TRUE(torch::allclose(da.depth[l], db.depth[l], 0.0, depth_tol)) << l;
@@ -245,15 +247,24 @@ TEST(NetworksTest, EveryParameterReceivesAGradient) {
   Networks nets(o, 3);
   nets->train();
   const torch::Tensor image = TestImage(o.input_width, o.input_height, 4);
-  const DepthNetOutput d = nets->depth->forward(image);
-  const FeatureNetOutput f = nets->feature->forward(image);
-  const std::vector<torch::Tensor> recon = nets->feature->Reconstruct(f.features);
-  torch::Tensor loss = torch::zeros({});
-  for (int l = 0; l < o.num_levels; ++l) {
-    loss =
-        loss + d.depth[l].mean() + f.features[l].mean() + f.mask_logits[l].mean() + recon[l].mean();
-  }
-  loss.backward();
+  auto loss_of = [&]() {
+    const DepthNetOutput d = nets->depth->forward(image);
+    const FeatureNetOutput f = nets->feature->forward(image);
+    const std::vector<torch::Tensor> recon = nets->feature->Reconstruct(f.features);
+    torch::Tensor loss = torch::zeros({});
+    for (int l = 0; l < o.num_levels; ++l) {
+      loss = loss + d.depth[l].mean() + f.features[l].mean() + f.mask_logits[l].mean() +
+             recon[l].mean();
+    }
+    return loss;
+  };
+  // The residual trunks start at zero, so the first gradient reaches their last convolution
+  // only; after one step every parameter is trained.
+  torch::optim::SGD sgd(nets->parameters(), torch::optim::SGDOptions(0.01));
+  loss_of().backward();
+  sgd.step();
+  sgd.zero_grad();
+  loss_of().backward();
   for (const auto& p : nets->named_parameters()) {
     ASSERT_TRUE(p.value().grad().defined()) << p.key();
     EXPECT_GT(p.value().grad().abs().sum().item<double>(), 0.0) << p.key();

@@ -187,6 +187,12 @@ ResidualAttentionBlockImpl::ResidualAttentionBlockImpl(int channels) {
   attention_ = register_module("attention", Conv(channels, 1, 3));
 }
 
+void ResidualAttentionBlockImpl::ZeroTrunk() {
+  torch::NoGradGuard no_grad;
+  trunk2_->weight.zero_();
+  trunk2_->bias.zero_();
+}
+
 torch::Tensor ResidualAttentionBlockImpl::forward(const torch::Tensor& x) {
   const torch::Tensor trunk = trunk2_->forward(torch::relu(trunk1_->forward(x)));
   const torch::Tensor attention = torch::sigmoid(attention_->forward(x));
@@ -304,6 +310,10 @@ void InitializeWeights(torch::nn::Module& module, uint64_t seed) {
   if (auto* conv = dynamic_cast<torch::nn::Conv2dImpl*>(&module)) init(conv);
   for (const std::shared_ptr<torch::nn::Module>& m : module.modules(/*include_self=*/false)) {
     if (auto* conv = m->as<torch::nn::Conv2dImpl>()) init(conv);
+  }
+  if (auto* block = dynamic_cast<ResidualAttentionBlockImpl*>(&module)) block->ZeroTrunk();
+  for (const std::shared_ptr<torch::nn::Module>& m : module.modules(/*include_self=*/false)) {
+    if (auto* block = m->as<ResidualAttentionBlockImpl>()) block->ZeroTrunk();
   }
 }
 

@@ -97,6 +97,10 @@ class ResidualAttentionBlockImpl : public torch::nn::Module {
  public:
   explicit ResidualAttentionBlockImpl(int channels);
   torch::Tensor forward(const torch::Tensor& x);
+  // Sets the trunk's last convolution to zero, so the block starts as the identity (ReLU(x) =
+  // x for its non-negative inputs); InitializeWeights does this ("zero-init residual", Goyal et
+  // al. 2017): without normalisation layers, 7 blocks otherwise grow activations ~100-fold.
+  void ZeroTrunk();
 
  private:
   torch::nn::Conv2d trunk1_{nullptr}, trunk2_{nullptr}, attention_{nullptr};
@@ -148,7 +152,8 @@ class NetworksImpl : public torch::nn::Module {
 TORCH_MODULE(Networks);
 
 // Re-initialises every Conv2d of `module` (recursively) from `seed`: weights uniform in
-// +-sqrt(6 / fan_in) (He), biases 0. Same seed -> bit-identical weights.
+// +-sqrt(6 / fan_in) (He), biases 0, then the last trunk convolution of every residual attention
+// block to 0 (ZeroTrunk). Same seed -> bit-identical weights.
 void InitializeWeights(torch::nn::Module& module, uint64_t seed);
 
 // Stores every 4-D parameter of `module` in channels_last (NHWC) memory format: oneDNN's fast
