@@ -264,7 +264,6 @@ int Run(const Args& args) {
   std::cout << "frames:      " << result.frames.size() << " of " << result.frames_in_sequence
             << " processed, " << lost << " lost, " << result.CountStatus(TrackingStatus::kDegraded)
             << " degraded\n";
-  PrintComparison(result, outputs);
   std::vector<double> total_ms, tracking_ms;
   for (const apps::FrameRecord& f : result.frames) {
     total_ms.push_back(f.total_ms);
@@ -287,6 +286,8 @@ int Run(const Args& args) {
   std::cout << "written:     " << config_path;
   for (const std::string& f : outputs.files) std::cout << "\n             " << f;
   std::cout << "\n";
+  // Last: keyframes and the side-by-side table of both trajectories.
+  PrintComparison(result, outputs);
   std::cout.flush();
 
   if (!result.error.empty()) {

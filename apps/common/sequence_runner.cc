@@ -165,7 +165,7 @@ class KeyframePipeline {
         kf.window.optimized = false;
         kf.window.message = "non-finite keyframe pose after the solve; poses not taken";
       }
-      if (!kf.window.optimized && result_->poses.num_keyframes() > 1 &&
+      if (!kf.window.optimized && kf.window.keyframe_poses.size() >= 2 &&
           options_.log_stream != nullptr) {
         std::fprintf(options_.log_stream,
                      "%s: warning: bundle adjustment at keyframe %d kept the previous window "
@@ -296,15 +296,15 @@ io::JsonValue KeyframesToJson(const SequenceRunResult& result) {
   io::JsonValue failures = io::JsonValue::Array();
   for (const KeyframeRecord& r : result.keyframes) {
     ++reasons[r.reason == KeyframeReason::kNone ? "frontend" : KeyframeReasonName(r.reason)];
-    if (!r.ba_ran) continue;
+    // A solve needs two keyframes; the first keyframe of a run only enters the window.
+    if (!r.ba_ran || r.window.keyframe_poses.size() < 2) continue;
     ++ba_runs;
     optimized += r.window.optimized ? 1 : 0;
     marginalized += r.window.marginalized_frame_index >= 0 ? 1 : 0;
     max_keyframes = std::max(max_keyframes, static_cast<int>(r.window.keyframe_poses.size()));
     max_points = std::max(max_points, r.window.num_points);
     max_blocks = std::max(max_blocks, r.window.num_residual_blocks);
-    // The first keyframe has nothing to optimise; that is not a failure.
-    if (!r.window.optimized && !r.window.message.empty() && failures.size() < 20) {
+    if (!r.window.optimized && failures.size() < 20) {
       io::JsonValue f = io::JsonValue::Object();
       f.Set("frame", r.frame_index);
       f.Set("message", r.window.message);

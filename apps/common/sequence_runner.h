@@ -183,7 +183,9 @@ RunEvaluation EvaluateEstimate(const SequenceRunResult& result, const Trajectory
 //               without ground truth ("frontend_note" then says why); absent in mode windowed,
 //   "windowed": the same keys for the windowed trajectory ("windowed_note"); modes windowed and
 //               both only,
-//   "keyframes": {"count", "reasons": {reason: count}, "ba_runs", "ba_optimized", "ba_failed",
+//   "keyframes": {"count", "reasons": {reason: count} ("frontend" for the frontend's own
+//               switches), "ba_runs" (keyframes with a solve: two or more in the window),
+//               "ba_optimized", "ba_failed" (solves whose result was not kept),
 //               "marginalized", "max_window_keyframes", "max_points", "max_residual_blocks",
 //               "failures": [{"frame", "message"}] (at most 20)},
 //   "timing_ms": {"load", "features", "depth", "tracking", "total_per_frame",
