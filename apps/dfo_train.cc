@@ -1,6 +1,8 @@
 // dfo_train: self-supervised training of the DFO depth and feature networks on KITTI-layout
 // sequences (configs/train_default.yaml), with checkpoints, resume, loss curves and the final
 // model file; also predicts depth PNGs with a trained checkpoint for `dfo_eval depth`.
+#include <unistd.h>
+
 #include <atomic>
 #include <chrono>
 #include <csignal>
@@ -10,8 +12,6 @@
 #include <sstream>
 #include <string>
 #include <vector>
-
-#include <unistd.h>
 
 #include "dfo_core/error.h"
 #include "dfo_frontend/learned/internal/model_file.h"
@@ -96,8 +96,9 @@ Args ParseArgs(int argc, char** argv) {
     }
     if (flag == "--resume" || flag == "--export" || flag == "--print-config") {
       if (has_value) throw UsageError(flag + " takes no value");
-      (flag == "--resume" ? args.resume : flag == "--export" ? args.export_model
-                                                              : args.print_config) = true;
+      (flag == "--resume"   ? args.resume
+       : flag == "--export" ? args.export_model
+                            : args.print_config) = true;
       continue;
     }
     if (flag != "--config" && flag != "--set" && flag != "--output" && flag != "--model" &&
@@ -214,8 +215,8 @@ std::vector<learned::TrainingSequence> LoadData(const io::Config& config,
     learned::TrainingSequence t;
     t.name = folder;
     t.camera = seq.camera();
-    const size_t n = max_frames < 0 ? seq.size()
-                                    : std::min(seq.size(), static_cast<size_t>(max_frames));
+    const size_t n =
+        max_frames < 0 ? seq.size() : std::min(seq.size(), static_cast<size_t>(max_frames));
     for (size_t i = 0; i < n; ++i) t.images.push_back(ToRgb(seq.LoadImage(i)));
     std::cout << "dfo_train: " << folder << ": " << n << " frames at " << t.camera.width << "x"
               << t.camera.height << "\n";
@@ -241,8 +242,8 @@ std::string FormatDuration(double s) {
 void WriteCurves(const std::string& dir, const std::vector<learned::StepRecord>& history) {
   learned::WriteHistoryCsv(dir + "/losses.csv", history);
   if (history.empty()) return;
-  io::CurveSeries total{"total", {}, {}}, ap{"appearance", {}, {}}, sm{"smoothness x lambda", {}, {}},
-      ae{"reconstruction", {}, {}};
+  io::CurveSeries total{"total", {}, {}}, ap{"appearance", {}, {}},
+      sm{"smoothness x lambda", {}, {}}, ae{"reconstruction", {}, {}};
   for (const learned::StepRecord& r : history) {
     total.x.push_back(r.iteration);
     total.y.push_back(r.total);
@@ -331,8 +332,8 @@ int Run(const Args& args) {
     learned::TrainingSequence stand_in;
     stand_in.name = "stand-in";
     stand_in.camera = PinholeCamera(100, 100, options.network.input_width / 2.0,
-                                    options.network.input_height / 2.0,
-                                    options.network.input_width, options.network.input_height);
+                                    options.network.input_height / 2.0, options.network.input_width,
+                                    options.network.input_height);
     for (int i = 0; i < 3; ++i) {
       ImageU8 im(options.network.input_width, options.network.input_height, 3);
       std::fill(im.data(), im.data() + static_cast<size_t>(im.width()) * im.height() * 3,
@@ -389,14 +390,14 @@ int Run(const Args& args) {
         std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
     const double rate = (r.iteration - start_iteration) / std::max(elapsed, 1e-9);
     char buf[320];
-    std::snprintf(buf, sizeof(buf),
-                  "dfo_train: it %d/%d (%.1f%%) %s  loss %.4f (ap %.4f sm %.4f sp %.4f ae %.4f)  "
-                  "gn ok %.0f%%  depth %.1f m  %.2f it/s  ETA %s",
-                  r.iteration, options.iterations, 100.0 * r.iteration / options.iterations,
-                  r.stage.c_str(), r.total, r.appearance, r.smoothness, r.sparsity,
-                  r.reconstruction, 100.0 * r.gn_ok_ratio, r.mean_depth, rate,
-                  FormatDuration((options.iterations - r.iteration) / std::max(rate, 1e-9))
-                      .c_str());
+    std::snprintf(
+        buf, sizeof(buf),
+        "dfo_train: it %d/%d (%.1f%%) %s  loss %.4f (ap %.4f sm %.4f sp %.4f ae %.4f)  "
+        "gn ok %.0f%%  depth %.1f m  %.2f it/s  ETA %s",
+        r.iteration, options.iterations, 100.0 * r.iteration / options.iterations, r.stage.c_str(),
+        r.total, r.appearance, r.smoothness, r.sparsity, r.reconstruction, 100.0 * r.gn_ok_ratio,
+        r.mean_depth, rate,
+        FormatDuration((options.iterations - r.iteration) / std::max(rate, 1e-9)).c_str());
     return std::string(buf);
   };
   learned::StepRecord last;
@@ -422,8 +423,8 @@ int Run(const Args& args) {
     return 0;
   }
   learned::SaveModel(model_path, *trainer.networks(), Notes(args, trainer));
-  std::cout << "dfo_train: finished " << trainer.iteration() << " iterations; wrote "
-            << model_path << ", " << dir << "/losses.csv, " << dir << "/losses.png\n";
+  std::cout << "dfo_train: finished " << trainer.iteration() << " iterations; wrote " << model_path
+            << ", " << dir << "/losses.csv, " << dir << "/losses.png\n";
   return 0;
 }
 

@@ -17,9 +17,9 @@ namespace {
 
 constexpr int kFont = cv::FONT_HERSHEY_SIMPLEX;
 // Distinct BGR colours (tab10-like).
-const cv::Scalar kColours[] = {{180, 119, 31}, {14, 127, 255}, {44, 160, 44}, {40, 39, 214},
-                               {189, 103, 148}, {75, 86, 140}, {194, 119, 227}, {127, 127, 127},
-                               {34, 189, 188}, {207, 190, 23}};
+const cv::Scalar kColours[] = {{180, 119, 31},  {14, 127, 255}, {44, 160, 44},   {40, 39, 214},
+                               {189, 103, 148}, {75, 86, 140},  {194, 119, 227}, {127, 127, 127},
+                               {34, 189, 188},  {207, 190, 23}};
 
 double NiceStep(double range, int target) {
   const double raw = range / target;

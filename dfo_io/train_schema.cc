@@ -15,9 +15,7 @@ ConfigSchema BuildTrainSchema() {
       .GreaterThan(0);
   s.AddInt("network.input_height", 64, "Training height in pixels (divisible by 2^(levels-1))")
       .GreaterThan(0);
-  s.AddInt("network.num_levels", 4, "Pyramid levels of both networks (the paper: 4)")
-      .Min(1)
-      .Max(6);
+  s.AddInt("network.num_levels", 4, "Pyramid levels of both networks (the paper: 4)").Min(1).Max(6);
   s.AddIntList("network.channels", {8, 8, 16, 16}, "Feature channels per level, finest first")
       .Min(1)
       .Max(256);
@@ -68,8 +66,9 @@ ConfigSchema BuildTrainSchema() {
 
   s.AddSection("augment", "Augmentation, identical for the three frames of a snippet.");
   s.AddBool("augment.enabled", true, "Augment the training snippets");
-  s.AddDouble("augment.max_scale", 1.15, "Random upscale in [1, max_scale], then crop").Min(1).Max(
-      2);
+  s.AddDouble("augment.max_scale", 1.15, "Random upscale in [1, max_scale], then crop")
+      .Min(1)
+      .Max(2);
   s.AddDouble("augment.color_probability", 0.5,
               "Chance of the gamma / brightness / colour augmentation")
       .Min(0)
@@ -106,8 +105,7 @@ ConfigSchema BuildTrainSchema() {
   s.AddDouble("train.max_grad_norm", 10.0, "Gradient norm clip").GreaterThan(0);
   s.AddDouble("train.temperature_start", 1.0, "Gumbel-sigmoid temperature at the joint start")
       .GreaterThan(0);
-  s.AddDouble("train.temperature_end", 0.1, "Gumbel-sigmoid temperature at the end")
-      .GreaterThan(0);
+  s.AddDouble("train.temperature_end", 0.1, "Gumbel-sigmoid temperature at the end").GreaterThan(0);
   s.AddInt("train.seed", 1, "Seed of weights, data order, augmentation and Gumbel noise").Min(0);
   s.AddInt("train.threads", 1, "Torch threads").Min(1).Max(64);
   s.AddBool("train.channels_last", true, "NHWC memory format (faster convolutions here)");

@@ -60,8 +60,7 @@ class DfoTrainAppTest : public ::testing::Test {
   static void TearDownTestSuite() { delete data_; }
   static std::string Train(const std::string& args) {
     return std::string(DFO_TRAIN_EXE) + " --config " + test::SourceDir() +
-           "/configs/train_tiny.yaml --set 'data.sequences=[" + *data_ + "/sequences/00]' " +
-           args;
+           "/configs/train_tiny.yaml --set 'data.sequences=[" + *data_ + "/sequences/00]' " + args;
   }
   static std::string* data_;
 };
@@ -116,14 +115,14 @@ TEST_F(DfoTrainAppTest, SigtermLeavesACheckpointAndResumeContinuesTheCurve) {
   const CommandResult depth = Shell(Train("--output " + out + "/run --write-depth " + out +
                                           "/depth --sequence " + *data_ + "/sequences/00"));
   ASSERT_EQ(depth.status, 0) << depth.out;
-  const CommandResult eval = Shell(std::string(DFO_EVAL_EXE) + " depth --gt " + *data_ +
-                                   "/sequences/00/depth_0 --pred " + out +
-                                   "/depth --median-scaling --json");
+  const CommandResult eval =
+      Shell(std::string(DFO_EVAL_EXE) + " depth --gt " + *data_ + "/sequences/00/depth_0 --pred " +
+            out + "/depth --median-scaling --json");
   ASSERT_EQ(eval.status, 0) << eval.out;
   EXPECT_NE(eval.out.find("abs_rel"), std::string::npos) << eval.out;
   // Export from the checkpoint.
-  const CommandResult exported = Shell(Train("--output " + out + "/run --export --model " + out +
-                                             "/exported.dfo"));
+  const CommandResult exported =
+      Shell(Train("--output " + out + "/run --export --model " + out + "/exported.dfo"));
   ASSERT_EQ(exported.status, 0) << exported.out;
   EXPECT_TRUE(fs::exists(out + "/exported.dfo"));
 }

@@ -25,8 +25,7 @@ TEST(TrainSchemaTest, DefaultFileSetsOnlyTheDataAndKeepsTheSchemaDefaults) {
   EXPECT_EQ(config.GetStringList("data.sequences").size(), 4u);
   for (const std::string& key : TrainSchema().KeyPaths()) {
     if (key == "data.sequences") continue;
-    EXPECT_EQ(FormatConfigValue(config.Get(key)),
-              FormatConfigValue(Config(TrainSchema()).Get(key)))
+    EXPECT_EQ(FormatConfigValue(config.Get(key)), FormatConfigValue(Config(TrainSchema()).Get(key)))
         << key;
   }
 }

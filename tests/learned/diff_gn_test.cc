@@ -24,10 +24,9 @@ AlignmentView ToTensors(const View& view, int levels) {
   AlignmentView out;
   for (int l = 0; l < levels; ++l) {
     const FeatureLevel& f = view.features.levels[l];
-    out.features.push_back(
-        torch::from_blob(const_cast<float*>(f.data.data()), {f.channels, f.height, f.width},
-                         torch::kFloat32)
-            .clone());
+    out.features.push_back(torch::from_blob(const_cast<float*>(f.data.data()),
+                                            {f.channels, f.height, f.width}, torch::kFloat32)
+                               .clone());
     out.cameras.push_back(f.camera);
     const ImageF& d = view.depth.levels[l];
     torch::Tensor dt = torch::empty({d.height(), d.width()}, torch::kFloat32);

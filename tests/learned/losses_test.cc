@@ -62,8 +62,7 @@ TEST(LossesTest, AppearanceOfAConstantOffsetIsTheClampedL1Part) {
   double dssim = (1 - ssim) / 2;
   dssim = dssim < 0.15 ? dssim : 0.1 * dssim + 0.9 * 0.15;
   const double expected = 0.85 * dssim + 0.15 * 0.32;
-  EXPECT_NEAR(AppearanceLoss(a, b, torch::Tensor(), LossOptions()).item<double>(), expected,
-              1e-5);
+  EXPECT_NEAR(AppearanceLoss(a, b, torch::Tensor(), LossOptions()).item<double>(), expected, 1e-5);
 }
 
 TEST(LossesTest, KnownDisparityRampGivesExpectedSmoothness) {

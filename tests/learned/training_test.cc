@@ -163,9 +163,7 @@ TEST_F(TrainingTest, BadCheckpointAndShapeMismatchAreInputErrors) {
   const std::string dir = test::MakeTempDir("train_badckpt");
   TrainingOptions o = TinyOptions();
   Trainer trainer(o, {*data_});
-  {
-    std::ofstream(dir + "/junk.pt") << "not a checkpoint";
-  }
+  { std::ofstream(dir + "/junk.pt") << "not a checkpoint"; }
   EXPECT_THROW(trainer.LoadCheckpoint(dir + "/junk.pt"), InputError);
   trainer.SaveCheckpoint(dir + "/ok.pt");
   TrainingOptions other = o;

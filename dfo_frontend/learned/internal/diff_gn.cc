@@ -23,15 +23,14 @@ torch::TensorOptions Double() { return torch::TensorOptions().dtype(torch::kFloa
 torch::Tensor Hat(const torch::Tensor& w) {
   const torch::Tensor zero = torch::zeros({}, w.options());
   const torch::Tensor x = w[0], y = w[1], z = w[2];
-  return torch::stack({torch::stack({zero, -z, y}), torch::stack({z, zero, -x}),
-                       torch::stack({-y, x, zero})});
+  return torch::stack(
+      {torch::stack({zero, -z, y}), torch::stack({z, zero, -x}), torch::stack({-y, x, zero})});
 }
 
 // Number of valid (> 0) depths and their mean (differentiable).
 torch::Tensor MeanValidDepth(const torch::Tensor& depth) {
   const torch::Tensor valid = (depth > 0).to(depth.dtype());
-  return (depth * valid).sum().to(torch::kFloat64) /
-         valid.sum().clamp_min(1.0).to(torch::kFloat64);
+  return (depth * valid).sum().to(torch::kFloat64) / valid.sum().clamp_min(1.0).to(torch::kFloat64);
 }
 
 }  // namespace
@@ -149,8 +148,7 @@ struct LevelData {
   double mean_depth = 0.0;  // detached, for the convergence test
 };
 
-LevelData BuildLevel(const Tracker& tracker, int level, const AlignmentView& ref,
-                     int patch_size) {
+LevelData BuildLevel(const Tracker& tracker, int level, const AlignmentView& ref, int patch_size) {
   LevelData lv;
   const std::vector<Eigen::Vector2i> centres = tracker.reference_points(level);
   lv.num_patches = static_cast<int>(centres.size());
@@ -193,15 +191,12 @@ LevelData BuildLevel(const Tracker& tracker, int level, const AlignmentView& ref
   //   row v: [0, fy/Z, -fy Y/Z^2, -fy (1 + Y^2/Z^2), fy X Y/Z^2, fy X/Z]
   const torch::Tensor iz = 1.0 / d, xz = px * iz, yz = py * iz;
   const torch::Tensor zero = torch::zeros_like(d);
-  const torch::Tensor ju = cam.fx * torch::stack({iz, zero, -xz * iz, -xz * yz, 1.0 + xz * xz,
-                                                  -yz},
-                                                 1);
-  const torch::Tensor jv = cam.fy * torch::stack({zero, iz, -yz * iz, -(1.0 + yz * yz), xz * yz,
-                                                  xz},
-                                                 1);
+  const torch::Tensor ju =
+      cam.fx * torch::stack({iz, zero, -xz * iz, -xz * yz, 1.0 + xz * xz, -yz}, 1);
+  const torch::Tensor jv =
+      cam.fy * torch::stack({zero, iz, -yz * iz, -(1.0 + yz * yz), xz * yz, xz}, 1);
   lv.jacobians = gx.unsqueeze(2) * ju.unsqueeze(1) + gy.unsqueeze(2) * jv.unsqueeze(1);
-  const torch::Tensor jp =
-      lv.jacobians.reshape({lv.num_patches, lv.patch_pixels * c, 6});
+  const torch::Tensor jp = lv.jacobians.reshape({lv.num_patches, lv.patch_pixels * c, 6});
   lv.hessians = torch::matmul(jp.transpose(1, 2), jp);
   if (static_cast<size_t>(level) < ref.masks.size() && ref.masks[level].defined()) {
     std::vector<int64_t> centre_idx;
@@ -249,14 +244,13 @@ Evaluation Evaluate(const LevelData& lv, const torch::Tensor& cur, const PoseTen
   const torch::Tensor gy = (v * (2.0 / (h - 1)) - 1.0).to(torch::kFloat32);
   const torch::Tensor grid = torch::stack({gx, gy}, 1).view({1, 1, -1, 2});
   namespace F = torch::nn::functional;
-  const torch::Tensor sampled =
-      F::grid_sample(cur.to(torch::kFloat32).unsqueeze(0), grid,
-                     F::GridSampleFuncOptions()
-                         .mode(torch::kBilinear)
-                         .padding_mode(torch::kZeros)
-                         .align_corners(true))
-          .view({c, -1})
-          .transpose(0, 1);  // M x C
+  const torch::Tensor sampled = F::grid_sample(cur.to(torch::kFloat32).unsqueeze(0), grid,
+                                               F::GridSampleFuncOptions()
+                                                   .mode(torch::kBilinear)
+                                                   .padding_mode(torch::kZeros)
+                                                   .align_corners(true))
+                                    .view({c, -1})
+                                    .transpose(0, 1);                 // M x C
   const torch::Tensor r = (lv.values - sampled).to(torch::kFloat64);  // M x C
   const torch::Tensor rp = r.reshape({lv.num_patches, -1});
   ev.energy = (rp * rp).sum(1);
@@ -270,9 +264,7 @@ Evaluation Evaluate(const LevelData& lv, const torch::Tensor& cur, const PoseTen
   }
   if (need_gradient) {
     // g_i = sum over the patch's pixels and channels of J^T r.
-    ev.gradient = (lv.jacobians * r.unsqueeze(2))
-                      .reshape({lv.num_patches, -1, 6})
-                      .sum(1);
+    ev.gradient = (lv.jacobians * r.unsqueeze(2)).reshape({lv.num_patches, -1, 6}).sum(1);
   }
   return ev;
 }
@@ -283,8 +275,8 @@ int Inliers(const Evaluation& ev, bool outlier_rule, std::vector<uint8_t>* inlie
   for (size_t i = 0; i < ev.valid.size(); ++i) {
     if (ev.valid[i]) energies.push_back(ev.energies[i]);
   }
-  const double threshold = outlier_rule ? Tracker::OutlierThreshold(energies)
-                                        : std::numeric_limits<double>::infinity();
+  const double threshold =
+      outlier_rule ? Tracker::OutlierThreshold(energies) : std::numeric_limits<double>::infinity();
   inlier->assign(ev.valid.size(), 0);
   int n = 0;
   for (size_t i = 0; i < ev.valid.size(); ++i) {
@@ -302,9 +294,8 @@ bool Finite(const PoseTensor& pose) {
 }
 
 // Tracker::AlignLevel with tensors. Returns the level stats; *pose is updated in place.
-DiffGnLevelStats AlignLevel(const LevelData& lv, const torch::Tensor& cur,
-                            const PinholeCamera& cam, const TrackerOptions& options, int level,
-                            PoseTensor* pose) {
+DiffGnLevelStats AlignLevel(const LevelData& lv, const torch::Tensor& cur, const PinholeCamera& cam,
+                            const TrackerOptions& options, int level, PoseTensor* pose) {
   DiffGnLevelStats stats;
   stats.num_points = lv.num_patches;
   const int max_iterations = options.MaxIterations(level);

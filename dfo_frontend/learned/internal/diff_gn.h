@@ -74,7 +74,7 @@ struct DiffGnLevelStats {
   int num_points = 0;
   int num_inliers = 0;  // at the last evaluation
   int iterations = 0;
-  bool ok = false;      // enough inliers and a finite pose (else the level's update is dropped)
+  bool ok = false;  // enough inliers and a finite pose (else the level's update is dropped)
 };
 
 // Result of DifferentiableAlign.

@@ -143,8 +143,8 @@ torch::Tensor InverseWarp(const torch::Tensor& source, const torch::Tensor& dept
   const torch::Tensor cy = intrinsics.select(1, 3).view({n, 1, 1});
   const torch::Tensor d = depth.squeeze(1);
   // p = d K^-1 u, q = R p + t.
-  const torch::Tensor p = torch::stack({(xs - cx) / fx * d, (ys - cy) / fy * d, d}, 1)
-                              .reshape({n, 3, h * w});
+  const torch::Tensor p =
+      torch::stack({(xs - cx) / fx * d, (ys - cy) / fy * d, d}, 1).reshape({n, 3, h * w});
   const torch::Tensor q = torch::bmm(rotation, p) + translation.view({n, 3, 1});
   const torch::Tensor z = q.select(1, 2);
   const torch::Tensor z_safe = torch::where(z > 1e-3, z, torch::full_like(z, 1e-3));

@@ -25,13 +25,13 @@ namespace dfo::learned {
 
 // Loss weights and constants (training YAML section `train`, see TrainingOptions).
 struct LossOptions {
-  double ssim_weight = 0.85;    // alpha of the appearance mix, in [0, 1]
-  double dssim_clamp = 0.15;    // eps of the robust clamp on DSSIM / 2, > 0
-  double l1_clamp = 0.3;        // eps of the robust clamp on L1, > 0
-  double smooth_weight = 0.1;   // lambda_sm (level l weighted lambda_sm / 2^l, l = 0 finest), >= 0
+  double ssim_weight = 0.85;   // alpha of the appearance mix, in [0, 1]
+  double dssim_clamp = 0.15;   // eps of the robust clamp on DSSIM / 2, > 0
+  double l1_clamp = 0.3;       // eps of the robust clamp on L1, > 0
+  double smooth_weight = 0.1;  // lambda_sm (level l weighted lambda_sm / 2^l, l = 0 finest), >= 0
   double sparsity_weight = 0.01;  // lambda_sp, >= 0
   double sparsity_target = 0.1;   // rho, the target mask density, in (0, 1)
-  double ae_weight = 0.01;      // lambda_ae, >= 0
+  double ae_weight = 0.01;        // lambda_ae, >= 0
   // Scale gauge of the joint stage (not in the paper; see training.h): depths are normalised to
   // this batch mean (metres) before alignment and warping, 0 = off (then the scale drifts freely),
   // else > 0; and a prior depth_prior_weight * log(batch mean / depth_mean_m)^2 on the raw

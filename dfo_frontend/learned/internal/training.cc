@@ -104,13 +104,13 @@ void TrainingOptions::Check() const {
 
 torch::Tensor ImageToTensor(const ImageU8& image) {
   DFO_CHECK(image.channels() == 1 || image.channels() == 3) << image.channels();
-  torch::Tensor t = torch::from_blob(const_cast<uint8_t*>(image.data()),
-                                     {image.height(), image.width(), image.channels()},
-                                     torch::kUInt8)
-                        .permute({2, 0, 1})
-                        .to(torch::kFloat32)
-                        .div(255.0)
-                        .unsqueeze(0);
+  torch::Tensor t =
+      torch::from_blob(const_cast<uint8_t*>(image.data()),
+                       {image.height(), image.width(), image.channels()}, torch::kUInt8)
+          .permute({2, 0, 1})
+          .to(torch::kFloat32)
+          .div(255.0)
+          .unsqueeze(0);
   if (image.channels() == 1) t = t.expand({1, 3, image.height(), image.width()});
   return t.contiguous();
 }
@@ -134,20 +134,20 @@ Trainer::Trainer(const TrainingOptions& options, std::vector<TrainingSequence> d
       if (im.channels() != 3 || im.width() != seq.camera.width ||
           im.height() != seq.camera.height) {
         std::ostringstream msg;
-        msg << "training data " << seq.name << " frame " << i << ": image is " << im.width()
-            << "x" << im.height() << "x" << im.channels() << ", expected RGB "
-            << seq.camera.width << "x" << seq.camera.height << " (the sequence's camera)";
+        msg << "training data " << seq.name << " frame " << i << ": image is " << im.width() << "x"
+            << im.height() << "x" << im.channels() << ", expected RGB " << seq.camera.width << "x"
+            << seq.camera.height << " (the sequence's camera)";
         throw InputError(msg.str());
       }
     }
     if (seq.camera.width != w || seq.camera.height != h) {
       // Resize to the training size (bilinear, pixel-centre convention as Resized()).
       for (ImageU8& im : seq.images) {
-        const torch::Tensor t = F::interpolate(ImageToTensor(im),
-                                               F::InterpolateFuncOptions()
-                                                   .size(std::vector<int64_t>{h, w})
-                                                   .mode(torch::kBilinear)
-                                                   .align_corners(false));
+        const torch::Tensor t =
+            F::interpolate(ImageToTensor(im), F::InterpolateFuncOptions()
+                                                  .size(std::vector<int64_t>{h, w})
+                                                  .mode(torch::kBilinear)
+                                                  .align_corners(false));
         const torch::Tensor u8 = (t.squeeze(0).permute({1, 2, 0}) * 255.0)
                                      .round()
                                      .clamp(0, 255)
@@ -181,9 +181,8 @@ Trainer::Trainer(const TrainingOptions& options, std::vector<TrainingSequence> d
   networks_ = Networks(options_.network, options_.seed);
   if (options_.channels_last) ToChannelsLast(*networks_);
   optimizer_ = std::make_unique<torch::optim::Adam>(
-      networks_->parameters(),
-      torch::optim::AdamOptions(options_.learning_rate)
-          .betas({options_.adam_beta1, options_.adam_beta2}));
+      networks_->parameters(), torch::optim::AdamOptions(options_.learning_rate)
+                                   .betas({options_.adam_beta1, options_.adam_beta2}));
 }
 
 Trainer::~Trainer() = default;
@@ -197,8 +196,8 @@ double Trainer::LearningRateAt(int iteration) const {
 
 double Trainer::TemperatureAt(int iteration) const {
   const int joint = std::max(1, options_.iterations - options_.ae_iterations);
-  const double progress = std::clamp(
-      static_cast<double>(iteration - options_.ae_iterations) / joint, 0.0, 1.0);
+  const double progress =
+      std::clamp(static_cast<double>(iteration - options_.ae_iterations) / joint, 0.0, 1.0);
   return options_.temperature_start *
          std::pow(options_.temperature_end / options_.temperature_start, progress);
 }
@@ -211,8 +210,8 @@ Trainer::Batch Trainer::MakeBatch(int iteration) const {
   std::vector<float> intrinsics;
   Batch batch;
   for (int b = 0; b < options_.batch_size; ++b) {
-    const Snippet& snip = snippets_[static_cast<size_t>(unit(rng) * snippets_.size()) %
-                                    snippets_.size()];
+    const Snippet& snip =
+        snippets_[static_cast<size_t>(unit(rng) * snippets_.size()) % snippets_.size()];
     const TrainingSequence& seq = data_[snip.sequence];
     PinholeCamera camera = seq.camera;
     torch::Tensor images = torch::cat({ImageToTensor(seq.images[snip.index - 1]),
@@ -254,8 +253,8 @@ Trainer::Batch Trainer::MakeBatch(int iteration) const {
                        static_cast<float>(camera.cx), static_cast<float>(camera.cy)});
     batch.cameras.push_back(camera);
   }
-  const auto format = options_.channels_last ? torch::MemoryFormat::ChannelsLast
-                                             : torch::MemoryFormat::Contiguous;
+  const auto format =
+      options_.channels_last ? torch::MemoryFormat::ChannelsLast : torch::MemoryFormat::Contiguous;
   batch.previous = torch::stack(frames[0]).contiguous(format);
   batch.target = torch::stack(frames[1]).contiguous(format);
   batch.next = torch::stack(frames[2]).contiguous(format);
@@ -270,8 +269,8 @@ StepRecord Trainer::AeStep(const Batch& batch) {
   const FeatureNetOutput out = networks_->feature->forward(batch.target);
   const std::vector<torch::Tensor> recon = networks_->feature->Reconstruct(out.features);
   const std::vector<torch::Tensor> pyramid = ImagePyramid(batch.target, levels);
-  at::Generator gen = at::make_generator<at::CPUGeneratorImpl>(
-      StepSeed(options_.seed, iteration_, 1));
+  at::Generator gen =
+      at::make_generator<at::CPUGeneratorImpl>(StepSeed(options_.seed, iteration_, 1));
   torch::Tensor reconstruction = torch::zeros({});
   torch::Tensor sparsity = torch::zeros({});
   rec.temperature = TemperatureAt(iteration_);
@@ -420,8 +419,10 @@ StepRecord Trainer::JointStep(const Batch& batch, int iteration) {
     auto ms = [](Clock::time_point a, Clock::time_point b) {
       return std::chrono::duration<double, std::milli>(b - a).count();
     };
-    std::fprintf(stderr, "joint step ms: networks %.0f, alignment %.0f, warp+losses %.0f, "
-                 "backward+adam %.0f\n", ms(t0, t1), ms(t1, t2), ms(t2, t3), ms(t3, t4));
+    std::fprintf(stderr,
+                 "joint step ms: networks %.0f, alignment %.0f, warp+losses %.0f, "
+                 "backward+adam %.0f\n",
+                 ms(t0, t1), ms(t1, t2), ms(t2, t3), ms(t3, t4));
   }
   rec.total = total.item<double>();
   rec.appearance = appearance.item<double>();
@@ -441,8 +442,8 @@ StepRecord Trainer::Step() {
   }
   networks_->train();
   const Batch batch = MakeBatch(iteration_);
-  StepRecord rec = iteration_ < options_.ae_iterations ? AeStep(batch)
-                                                       : JointStep(batch, iteration_);
+  StepRecord rec =
+      iteration_ < options_.ae_iterations ? AeStep(batch) : JointStep(batch, iteration_);
   if (!std::isfinite(rec.total)) {
     std::ostringstream msg;
     msg << "training: the loss is not finite at iteration " << iteration_ + 1 << " (" << rec.stage
@@ -454,8 +455,7 @@ StepRecord Trainer::Step() {
   ++iteration_;
   rec.iteration = iteration_;
   rec.learning_rate = lr;
-  rec.seconds =
-      std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+  rec.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
   history_.push_back(rec);
   return rec;
 }
@@ -485,8 +485,8 @@ void Trainer::SaveCheckpoint(const std::string& path) const {
   archive.write("optimizer", optim);
   archive.write("iteration", torch::tensor(static_cast<int64_t>(iteration_)));
   archive.write("shape", c10::IValue(ShapeSignature(options_.network)));
-  torch::Tensor h = torch::zeros({static_cast<int64_t>(history_.size()), kHistoryColumns},
-                                 torch::kFloat64);
+  torch::Tensor h =
+      torch::zeros({static_cast<int64_t>(history_.size()), kHistoryColumns}, torch::kFloat64);
   auto a = h.accessor<double, 2>();
   for (size_t i = 0; i < history_.size(); ++i) {
     const StepRecord& r = history_[i];
@@ -601,8 +601,8 @@ void Trainer::LoadWeights(const std::string& path) {
 std::vector<torch::Tensor> Trainer::PredictDepth(const torch::Tensor& images) {
   torch::NoGradGuard no_grad;
   networks_->eval();
-  const auto format = options_.channels_last ? torch::MemoryFormat::ChannelsLast
-                                             : torch::MemoryFormat::Contiguous;
+  const auto format =
+      options_.channels_last ? torch::MemoryFormat::ChannelsLast : torch::MemoryFormat::Contiguous;
   DepthNetOutput out = networks_->depth->forward(images.contiguous(format));
   networks_->train();
   return out.depth;
@@ -616,9 +616,9 @@ void WriteHistoryCsv(const std::string& path, const std::vector<StepRecord>& his
   out.precision(9);
   for (const StepRecord& r : history) {
     out << r.iteration << "," << r.stage << "," << r.total << "," << r.appearance << ","
-        << r.smoothness << "," << r.sparsity << "," << r.reconstruction << ","
-        << r.learning_rate << "," << r.temperature << "," << r.gn_ok_ratio << ","
-        << r.mean_depth << "," << r.seconds << "\n";
+        << r.smoothness << "," << r.sparsity << "," << r.reconstruction << "," << r.learning_rate
+        << "," << r.temperature << "," << r.gn_ok_ratio << "," << r.mean_depth << "," << r.seconds
+        << "\n";
   }
   if (!out) throw InputError("loss history " + path + ": write failed");
 }
@@ -638,8 +638,8 @@ std::vector<StepRecord> ReadHistoryCsv(const std::string& path) {
     while (std::getline(ss, field, ',')) f.push_back(field);
     if (f.size() != kHistoryColumns) {
       std::ostringstream msg;
-      msg << "loss history " << path << ":" << line_no << ": " << f.size()
-          << " fields, expected " << kHistoryColumns;
+      msg << "loss history " << path << ":" << line_no << ": " << f.size() << " fields, expected "
+          << kHistoryColumns;
       throw InputError(msg.str());
     }
     try {

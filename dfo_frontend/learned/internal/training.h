@@ -44,9 +44,9 @@ namespace dfo::learned {
 // One training sequence in memory: RGB frames (3 channels, all of the camera's size) in time
 // order.
 struct TrainingSequence {
-  std::string name;              // for messages ("seq 101")
-  std::vector<ImageU8> images;   // RGB, camera.width x camera.height each
-  PinholeCamera camera;          // intrinsics of `images`
+  std::string name;             // for messages ("seq 101")
+  std::vector<ImageU8> images;  // RGB, camera.width x camera.height each
+  PinholeCamera camera;         // intrinsics of `images`
 };
 
 // A 3-frame snippet: frames index - 1, index, index + 1 of sequence `sequence`.
@@ -106,9 +106,9 @@ struct TrainingOptions {
   // Gumbel-sigmoid temperature, geometric from start to end over the joint stage (paper 1 -> 0.1).
   double temperature_start = 1.0;
   double temperature_end = 0.1;
-  uint64_t seed = 1;        // data order, augmentation, Gumbel noise and initial weights
-  int threads = 1;          // torch intra-op threads, >= 1
-  bool channels_last = true;  // NHWC memory format (oneDNN's fast path on this CPU)
+  uint64_t seed = 1;           // data order, augmentation, Gumbel noise and initial weights
+  int threads = 1;             // torch intra-op threads, >= 1
+  bool channels_last = true;   // NHWC memory format (oneDNN's fast path on this CPU)
   int checkpoint_every = 500;  // iterations between checkpoints, >= 1
 
   // Throws ConfigError naming the field ("train.batch_size = 0 violates >= 1").
