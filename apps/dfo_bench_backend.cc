@@ -47,6 +47,9 @@ options:
   --time-limit S         WindowOptions::max_solver_time_s (default: the option's default)
   --depth-prior W        WindowOptions::depth_prior_weight (default 0)
   --level L              WindowOptions::pyramid_level (default 1)
+  --fej                  WindowOptions::first_estimate_jacobians = true
+  --prior-weight W       WindowOptions::prior_weight (default 1)
+  --min-point-fraction F WindowOptions::min_point_fraction (1 = always the oldest leaves)
   --solver NAME          sparse_schur (default) or dense_schur
   --no-marginalization   drop instead of marginalising
   --seed S               synthetic sequence seed (default 1)
@@ -98,6 +101,12 @@ Args Parse(int argc, char** argv) {
       args.window.depth_prior_weight = std::atof(next());
     } else if (flag == "--level") {
       args.window.pyramid_level = ParseInt(flag, next());
+    } else if (flag == "--fej") {
+      args.window.first_estimate_jacobians = true;
+    } else if (flag == "--prior-weight") {
+      args.window.prior_weight = std::atof(next());
+    } else if (flag == "--min-point-fraction") {
+      args.window.min_point_fraction = std::atof(next());
     } else if (flag == "--solver") {
       args.window.linear_solver = next();
     } else if (flag == "--no-marginalization") {
@@ -124,8 +133,8 @@ int Run(const Args& args) {
   auto depth = MakeDepthSource("gt");
   std::mt19937 rng(7);
   std::normal_distribution<double> noise(0.0, 1.0);
-  std::printf("preparing %d keyframes (every %d frames of %d x %d)...\n", args.keyframes,
-              args.step, synthetic.width, synthetic.height);
+  std::printf("preparing %d keyframes (every %d frames of %d x %d)...\n", args.keyframes, args.step,
+              synthetic.width, synthetic.height);
   std::vector<KeyframeData> keyframes;
   for (int k = 0; k < args.keyframes; ++k) {
     const SyntheticFrame rendered = sequence.RenderFrame(k * args.step, 2);
@@ -175,12 +184,13 @@ int Run(const Args& args) {
       last_rot_err = std::max(last_rot_err, err.so3().Angle() * 180.0 / M_PI);
     }
     if (args.verbose) {
-      std::printf("keyframe %4d: %s cost %10.1f -> %10.1f  BA %6.1f ms  marg %5.1f ms  "
-                  "points %5d  blocks %6d  gated %4d  window error %.4f m %.4f deg %s\n",
-                  poses.back().first, result.optimized ? "ok  " : "FAIL", result.initial_cost,
-                  result.final_cost, result.solve_ms, result.marginalization_ms,
-                  result.num_points, result.num_residual_blocks, result.num_gated_blocks,
-                  last_trans_err, last_rot_err, result.message.c_str());
+      std::printf(
+          "keyframe %4d: %s cost %10.1f -> %10.1f  BA %6.1f ms  marg %5.1f ms  "
+          "points %5d  blocks %6d  gated %4d  window error %.4f m %.4f deg %s\n",
+          poses.back().first, result.optimized ? "ok  " : "FAIL", result.initial_cost,
+          result.final_cost, result.solve_ms, result.marginalization_ms, result.num_points,
+          result.num_residual_blocks, result.num_gated_blocks, last_trans_err, last_rot_err,
+          result.message.c_str());
       if (std::getenv("DFO_BENCH_PER_KEYFRAME")) {
         for (const auto& [index, pose] : poses) {
           const SE3d err = sequence.WorldFromCam(index).Inverse() * pose;
@@ -191,11 +201,11 @@ int Run(const Args& args) {
     }
   }
   const WindowOptions& o = args.window;
-  std::printf("window %d, level %d, %dx%d patches, %d points/keyframe, %s, %d threads, "
-              "marginalization %s, max %d iterations\n",
-              o.max_keyframes, o.pyramid_level, o.patch_size, o.patch_size,
-              o.points_per_keyframe, o.linear_solver.c_str(), o.num_threads,
-              o.marginalization ? "on" : "off", o.max_iterations);
+  std::printf(
+      "window %d, level %d, %dx%d patches, %d points/keyframe, %s, %d threads, "
+      "marginalization %s, max %d iterations\n",
+      o.max_keyframes, o.pyramid_level, o.patch_size, o.patch_size, o.points_per_keyframe,
+      o.linear_solver.c_str(), o.num_threads, o.marginalization ? "on" : "off", o.max_iterations);
   if (total_ms.empty()) {
     std::printf("the window never filled; use more --keyframes\n");
     return 0;
@@ -207,11 +217,12 @@ int Run(const Args& args) {
               Percentile(marg_ms, 90));
   std::printf("  BA + marginalisation median %6.1f ms   p90 %7.1f ms\n", Percentile(total_ms, 50),
               Percentile(total_ms, 90));
-  std::printf("window size: at most %d points, %d residual blocks; %d failed solves\n",
-              max_points, max_blocks, failures);
-  std::printf("last window vs ground truth (relative to its oldest keyframe): max %.4f m, "
-              "%.4f deg\n",
-              last_trans_err, last_rot_err);
+  std::printf("window size: at most %d points, %d residual blocks; %d failed solves\n", max_points,
+              max_blocks, failures);
+  std::printf(
+      "last window vs ground truth (relative to its oldest keyframe): max %.4f m, "
+      "%.4f deg\n",
+      last_trans_err, last_rot_err);
   return 0;
 }
 

@@ -38,8 +38,8 @@ FeatureMetricCost::FeatureMetricCost(const FeatureLevel* target, const PinholeCa
       host_patch_(std::move(host_patch)) {
   DFO_CHECK(target_ != nullptr && host_patch_ != nullptr);
   DFO_CHECK(patch_size_ >= 1 && patch_size_ % 2 == 1) << "patch_size " << patch_size_;
-  DFO_CHECK(target_->width >= 2 && target_->height >= 2) << target_->width << "x"
-                                                         << target_->height;
+  DFO_CHECK(target_->width >= 2 && target_->height >= 2)
+      << target_->width << "x" << target_->height;
   DFO_CHECK(host_patch_->size() ==
             static_cast<size_t>(target_->channels) * patch_size_ * patch_size_)
       << "host patch has " << host_patch_->size() << " values for " << target_->channels
@@ -81,8 +81,8 @@ int FeatureMetricCost::NumVisible(const double* host_pose, const double* target_
   int visible = 0;
   for (int dy = -radius; dy <= radius; ++dy) {
     for (int dx = -radius; dx <= radius; ++dx) {
-      const Eigen::Vector3d ray = host_camera_.Ray(Eigen::Vector2d(host_uv_.x() + dx,
-                                                                   host_uv_.y() + dy));
+      const Eigen::Vector3d ray =
+          host_camera_.Ray(Eigen::Vector2d(host_uv_.x() + dx, host_uv_.y() + dy));
       const Eigen::Vector3d Y = s.target_R_host * ray + inverse_depth * s.b;
       if (!(Y.z() > 1e-9)) continue;
       const Eigen::Vector2d p = cam.Project(Y);
@@ -107,9 +107,9 @@ bool FeatureMetricCost::EvaluateTangent(const double* host_pose, const double* t
 // conversion is folded into the 2 x 6 geometric Jacobian of each patch pixel (2 x 7 per pose),
 // so it costs O(K^2), not O(C K^2), per block.
 bool FeatureMetricCost::EvaluateImpl(const double* host_pose, const double* target_pose,
-                                     double inverse_depth, double* residuals,
-                                     double* jacobian_host, double* jacobian_target,
-                                     double* jacobian_inverse_depth, bool ambient) const {
+                                     double inverse_depth, double* residuals, double* jacobian_host,
+                                     double* jacobian_target, double* jacobian_inverse_depth,
+                                     bool ambient) const {
   const WarpSetup s = MakeSetup(host_pose, target_pose);
   const int pose_cols = ambient ? kPoseAmbientSize : kPoseTangentSize;
   Matrix6x7d minus_host = Matrix6x7d::Zero(), minus_target = Matrix6x7d::Zero();

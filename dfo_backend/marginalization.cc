@@ -27,8 +27,8 @@ void ApplyLossCorrection(const ceres::LossFunction* loss, LinearizedFactor* fact
   }
   for (Eigen::MatrixXd& jac : factor->jacobians) {
     if (alpha_sq_norm != 0.0) {
-      jac = sqrt_rho1 * (jac - alpha_sq_norm * factor->residual *
-                                   (factor->residual.transpose() * jac));
+      jac = sqrt_rho1 *
+            (jac - alpha_sq_norm * factor->residual * (factor->residual.transpose() * jac));
     } else {
       jac *= sqrt_rho1;
     }
@@ -256,8 +256,7 @@ bool Marginalize(const std::vector<MarginalizationVariable>& variables,
 }
 
 LinearPriorCost::LinearPriorCost(LinearPrior prior, std::vector<PriorBlockKind> kinds,
-                                 std::vector<std::vector<double>> x0,
-                                 bool first_estimate_jacobians)
+                                 std::vector<std::vector<double>> x0, bool first_estimate_jacobians)
     : prior_(std::move(prior)),
       kinds_(std::move(kinds)),
       x0_(std::move(x0)),
@@ -265,9 +264,9 @@ LinearPriorCost::LinearPriorCost(LinearPrior prior, std::vector<PriorBlockKind> 
   DFO_CHECK(kinds_.size() == prior_.variables.size() && x0_.size() == kinds_.size());
   set_num_residuals(prior_.rank());
   for (size_t i = 0; i < kinds_.size(); ++i) {
-    const int tangent = (i + 1 < kinds_.size() ? prior_.offsets[i + 1]
-                                               : static_cast<int>(prior_.jacobian.cols())) -
-                        prior_.offsets[i];
+    const int tangent =
+        (i + 1 < kinds_.size() ? prior_.offsets[i + 1] : static_cast<int>(prior_.jacobian.cols())) -
+        prior_.offsets[i];
     const int ambient = kinds_[i] == PriorBlockKind::kPose ? kPoseAmbientSize : tangent;
     DFO_CHECK(kinds_[i] != PriorBlockKind::kPose || tangent == kPoseTangentSize);
     DFO_CHECK(static_cast<int>(x0_[i].size()) == ambient);
@@ -296,8 +295,10 @@ Eigen::MatrixXd LinearPriorCost::TangentJacobian(int block, const double* x) con
     return Eigen::MatrixXd::Identity(d, d);
   }
   if (first_estimate_jacobians_) return Eigen::MatrixXd::Identity(6, 6);
-  // d Log(Exp(d) T T0^-1) / d d = J_l^-1(Log(T T0^-1)) (lie.h: Exp(xi + J_l^-1 d) ~ Exp(d) Exp(xi)).
-  const Vector6d xi = (PoseFromParameters(x) * PoseFromParameters(x0_[block].data()).Inverse()).Log();
+  // d Log(Exp(d) T T0^-1) / d d = J_l^-1(Log(T T0^-1)) (lie.h: Exp(xi + J_l^-1 d) ~ Exp(d)
+  // Exp(xi)).
+  const Vector6d xi =
+      (PoseFromParameters(x) * PoseFromParameters(x0_[block].data()).Inverse()).Log();
   return SE3d::LeftJacobianInverse(xi);
 }
 
@@ -314,8 +315,8 @@ bool LinearPriorCost::Evaluate(double const* const* parameters, double* residual
     using RowMajor = Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor>;
     Eigen::Map<RowMajor> jac(jacobians[i], prior_.rank(), ambient);
     if (kinds_[i] == PriorBlockKind::kPose) {
-      jac = prior_.jacobian.middleCols<6>(off) * TangentJacobian(static_cast<int>(i), parameters[i]) *
-            PoseMinusJacobian(parameters[i]);
+      jac = prior_.jacobian.middleCols<6>(off) *
+            TangentJacobian(static_cast<int>(i), parameters[i]) * PoseMinusJacobian(parameters[i]);
     } else {
       jac = prior_.jacobian.middleCols(off, ambient);
     }

@@ -70,7 +70,9 @@ struct LinearPrior {
   Eigen::VectorXd residual;    // r0, rank
   int rank() const { return static_cast<int>(residual.size()); }
   // Quadratic energy at the stacked tangent difference dx.
-  double Energy(const Eigen::VectorXd& dx) const { return (residual + jacobian * dx).squaredNorm(); }
+  double Energy(const Eigen::VectorXd& dx) const {
+    return (residual + jacobian * dx).squaredNorm();
+  }
 };
 
 // Builds the prior of marginalising the variables flagged `marginalize`. Returns false (and

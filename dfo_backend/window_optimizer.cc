@@ -98,22 +98,22 @@ void WindowOptions::Check() const {
   Require(pyramid_level >= 0, "window.pyramid_level", pyramid_level, ">= 0");
   Require(patch_size >= 1 && patch_size <= 9 && patch_size % 2 == 1, "window.patch_size",
           patch_size, "odd and in [1, 9]");
-  Require(points_per_keyframe >= 1 && points_per_keyframe <= 100000,
-          "window.points_per_keyframe", points_per_keyframe, "in [1, 100000]");
+  Require(points_per_keyframe >= 1 && points_per_keyframe <= 100000, "window.points_per_keyframe",
+          points_per_keyframe, "in [1, 100000]");
   Require(loss == "huber" || loss == "cauchy", "window.loss", loss, "one of {huber, cauchy}");
   Require(std::isfinite(loss_scale) && loss_scale > 0.0, "window.loss_scale", loss_scale, "> 0");
-  Require(linear_solver == "sparse_schur" || linear_solver == "dense_schur",
-          "window.linear_solver", linear_solver, "one of {sparse_schur, dense_schur}");
+  Require(linear_solver == "sparse_schur" || linear_solver == "dense_schur", "window.linear_solver",
+          linear_solver, "one of {sparse_schur, dense_schur}");
   Require(max_iterations >= 1, "window.max_iterations", max_iterations, ">= 1");
-  Require(std::isfinite(max_solver_time_s) && max_solver_time_s > 0.0,
-          "window.max_solver_time_s", max_solver_time_s, "> 0");
+  Require(std::isfinite(max_solver_time_s) && max_solver_time_s > 0.0, "window.max_solver_time_s",
+          max_solver_time_s, "> 0");
   Require(num_threads >= 1, "window.num_threads", num_threads, ">= 1");
-  Require(std::isfinite(min_inverse_depth) && min_inverse_depth >= 0.0,
-          "window.min_inverse_depth", min_inverse_depth, ">= 0");
+  Require(std::isfinite(min_inverse_depth) && min_inverse_depth >= 0.0, "window.min_inverse_depth",
+          min_inverse_depth, ">= 0");
   Require(std::isfinite(depth_prior_weight) && depth_prior_weight >= 0.0,
           "window.depth_prior_weight", depth_prior_weight, ">= 0");
-  Require(std::isfinite(pose_prior_weight) && pose_prior_weight >= 0.0,
-          "window.pose_prior_weight", pose_prior_weight, ">= 0");
+  Require(std::isfinite(pose_prior_weight) && pose_prior_weight >= 0.0, "window.pose_prior_weight",
+          pose_prior_weight, ">= 0");
   Require(outlier_gate_percentile > 0.0 && outlier_gate_percentile <= 1.0,
           "window.outlier_gate_percentile", outlier_gate_percentile, "in (0, 1]");
   Require(std::isfinite(outlier_gate_factor) && outlier_gate_factor >= 1.0,
@@ -179,7 +179,8 @@ std::vector<int> WindowOptimizer::PriorFrameIndices() const {
 
 std::vector<std::pair<int, double>> WindowOptimizer::PointInverseDepths() const {
   std::vector<std::pair<int, double>> out;
-  for (const auto& p : points_) out.emplace_back(FindKeyframe(p->host_id)->frame_index, p->inverse_depth);
+  for (const auto& p : points_)
+    out.emplace_back(FindKeyframe(p->host_id)->frame_index, p->inverse_depth);
   return out;
 }
 
@@ -199,8 +200,8 @@ void WindowOptimizer::SelectPoints(KeyframeState* kf) {
   const FeatureLevel& f = kf->level;
   const int w = f.width, h = f.height;
   const int border = options_.patch_size / 2 + 1;
-  const double cell = std::max(
-      2.0, std::sqrt(static_cast<double>(w) * h / (2.0 * options_.points_per_keyframe)));
+  const double cell =
+      std::max(2.0, std::sqrt(static_cast<double>(w) * h / (2.0 * options_.points_per_keyframe)));
   const int cells_x = std::max(1, static_cast<int>(std::ceil(w / cell)));
   const int cells_y = std::max(1, static_cast<int>(std::ceil(h / cell)));
   struct Candidate {
@@ -281,11 +282,10 @@ void WindowOptimizer::RemovePointsWithoutResiduals() {
   // The newest keyframe's points may wait for later keyframes only if the window has just one
   // keyframe; otherwise a point without blocks carries no information.
   if (keyframes_.size() < 2) return;
-  points_.erase(std::remove_if(points_.begin(), points_.end(),
-                               [](const std::unique_ptr<PointState>& p) {
-                                 return p->residuals.empty();
-                               }),
-                points_.end());
+  points_.erase(
+      std::remove_if(points_.begin(), points_.end(),
+                     [](const std::unique_ptr<PointState>& p) { return p->residuals.empty(); }),
+      points_.end());
 }
 
 bool WindowOptimizer::Solve(int max_iterations, double* initial_cost, double* final_cost,
@@ -343,8 +343,9 @@ bool WindowOptimizer::Solve(int max_iterations, double* initial_cost, double* fi
     for (size_t i = 1; i < keyframes_.size(); ++i) {
       const SE3d a_from_b =
           keyframes_[i - 1]->frontend_pose.Inverse() * keyframes_[i]->frontend_pose;
-      owned_costs.push_back(std::make_unique<ceres::AutoDiffCostFunction<RelativePosePrior, 6, 7, 7>>(
-          new RelativePosePrior(a_from_b, options_.pose_prior_weight)));
+      owned_costs.push_back(
+          std::make_unique<ceres::AutoDiffCostFunction<RelativePosePrior, 6, 7, 7>>(
+              new RelativePosePrior(a_from_b, options_.pose_prior_weight)));
       problem.AddResidualBlock(owned_costs.back().get(), nullptr, keyframes_[i - 1]->pose,
                                keyframes_[i]->pose);
     }
@@ -358,9 +359,8 @@ bool WindowOptimizer::Solve(int max_iterations, double* initial_cost, double* fi
   }
 
   ceres::Solver::Options solver_options;
-  solver_options.linear_solver_type = options_.linear_solver == "dense_schur"
-                                          ? ceres::DENSE_SCHUR
-                                          : ceres::SPARSE_SCHUR;
+  solver_options.linear_solver_type =
+      options_.linear_solver == "dense_schur" ? ceres::DENSE_SCHUR : ceres::SPARSE_SCHUR;
   solver_options.sparse_linear_algebra_library_type = ceres::SUITE_SPARSE;
   solver_options.linear_solver_ordering = ordering;
   solver_options.max_num_iterations = max_iterations;
@@ -383,8 +383,7 @@ bool WindowOptimizer::Solve(int max_iterations, double* initial_cost, double* fi
   }
   for (const auto& p : points_) state_finite = state_finite && std::isfinite(p->inverse_depth);
   if (summary.termination_type == ceres::FAILURE || !summary.IsSolutionUsable() ||
-      !std::isfinite(summary.final_cost) || !std::isfinite(summary.initial_cost) ||
-      !state_finite) {
+      !std::isfinite(summary.final_cost) || !std::isfinite(summary.initial_cost) || !state_finite) {
     std::ostringstream msg;
     msg << "bundle adjustment failed (" << ceres::TerminationTypeToString(summary.termination_type)
         << ", cost " << summary.initial_cost << " -> " << summary.final_cost
@@ -475,9 +474,8 @@ WindowResult WindowOptimizer::AddKeyframe(KeyframeData data) {
   }
   channels_ = f.channels;
   if (!loss_) {
-    const double a = options_.loss_scale *
-                     std::sqrt(static_cast<double>(channels_) * options_.patch_size *
-                               options_.patch_size);
+    const double a = options_.loss_scale * std::sqrt(static_cast<double>(channels_) *
+                                                     options_.patch_size * options_.patch_size);
     if (options_.loss == "cauchy") {
       loss_ = std::make_unique<ceres::CauchyLoss>(a);
     } else {
@@ -634,7 +632,8 @@ void WindowOptimizer::MarginalizeKeyframe(int position, WindowResult* result) {
       if (options_.depth_prior_weight > 0.0) {
         const double s = std::sqrt(options_.depth_prior_weight) / p->prior_inverse_depth;
         LinearizedFactor factor;
-        factor.residual = Eigen::VectorXd::Constant(1, s * (p->inverse_depth - p->prior_inverse_depth));
+        factor.residual =
+            Eigen::VectorXd::Constant(1, s * (p->inverse_depth - p->prior_inverse_depth));
         factor.variables = {point_var};
         factor.jacobians = {Eigen::MatrixXd::Constant(1, 1, s)};
         factors.push_back(std::move(factor));
@@ -665,9 +664,8 @@ void WindowOptimizer::MarginalizeKeyframe(int position, WindowResult* result) {
           kinds.push_back(PriorBlockKind::kPose);
           x0.emplace_back(kf->pose, kf->pose + kPoseAmbientSize);
         }
-        prior_ = std::make_unique<LinearPriorCost>(std::move(prior), std::move(kinds),
-                                                   std::move(x0),
-                                                   options_.first_estimate_jacobians);
+        prior_ = std::make_unique<LinearPriorCost>(
+            std::move(prior), std::move(kinds), std::move(x0), options_.first_estimate_jacobians);
       } else {
         warn("marginalisation prior of keyframe " + std::to_string(leaving->frame_index) +
              " rejected: " + why + " (its information is dropped)");

@@ -21,8 +21,9 @@ FeatureLevel SmoothLevel(int width, int height, int channels) {
   for (int c = 0; c < channels; ++c) {
     for (int y = 0; y < height; ++y) {
       for (int x = 0; x < width; ++x) {
-        level.Channel(c)[y * width + x] = static_cast<float>(
-            std::sin(0.31 * x * (1 + 0.2 * c) + 0.17 * y) + 0.5 * std::cos(0.23 * y * (1 + c) - 0.11 * x + c));
+        level.Channel(c)[y * width + x] =
+            static_cast<float>(std::sin(0.31 * x * (1 + 0.2 * c) + 0.17 * y) +
+                               0.5 * std::cos(0.23 * y * (1 + c) - 0.11 * x + c));
       }
     }
   }
@@ -89,8 +90,8 @@ struct FeatureMetricTwin {
           const T ax = cx - T(x0), ay = cy - T(y0);
           const double v00 = target->At(c, x0, y0), v10 = target->At(c, x0 + 1, y0);
           const double v01 = target->At(c, x0, y0 + 1), v11 = target->At(c, x0 + 1, y0 + 1);
-          const T value = (T(1) - ay) * ((T(1) - ax) * v00 + ax * v10) +
-                          ay * ((T(1) - ax) * v01 + ax * v11);
+          const T value =
+              (T(1) - ay) * ((T(1) - ax) * v00 + ax * v10) + ay * ((T(1) - ax) * v01 + ax * v11);
           residuals[c * kk + k] = T(host_patch[c * kk + k]) - value;
         }
       }
@@ -139,8 +140,9 @@ TEST(PoseManifoldTest, PlusMinusRoundTripAndLeftPerturbation) {
   delta << 0.1, -0.2, 0.3, 0.05, -0.02, 0.04;
   ASSERT_TRUE(manifold.Plus(x, delta.data(), y));
   const SE3d expected = SE3d::Exp(delta) * pose;
-  EXPECT_LT((PoseFromParameters(y).Matrix3x4Form() - expected.Matrix3x4Form()).cwiseAbs().maxCoeff(),
-            1e-12);
+  EXPECT_LT(
+      (PoseFromParameters(y).Matrix3x4Form() - expected.Matrix3x4Form()).cwiseAbs().maxCoeff(),
+      1e-12);
   Vector6d back;
   ASSERT_TRUE(manifold.Minus(y, x, back.data()));
   EXPECT_LT((back - delta).cwiseAbs().maxCoeff(), 1e-12);

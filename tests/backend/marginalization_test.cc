@@ -61,14 +61,16 @@ struct ToyProblem {
     for (int id : factor_ids) {
       const Factor& f = factors[id];
       Eigen::MatrixXd j = Eigen::MatrixXd::Zero(f.c.size(), total);
-      for (size_t k = 0; k < f.vars.size(); ++k) j.middleCols(offsets[f.vars[k]], sizes[f.vars[k]]) = f.a[k];
+      for (size_t k = 0; k < f.vars.size(); ++k)
+        j.middleCols(offsets[f.vars[k]], sizes[f.vars[k]]) = f.a[k];
       add(j, j * x_lin - f.c);
     }
     if (prior) {
       Eigen::MatrixXd j = Eigen::MatrixXd::Zero(prior->rank(), total);
       for (size_t k = 0; k < prior->variables.size(); ++k) {
         const int v = prior->variables[k];
-        j.middleCols(offsets[v], sizes[v]) = prior->jacobian.middleCols(prior->offsets[k], sizes[v]);
+        j.middleCols(offsets[v], sizes[v]) =
+            prior->jacobian.middleCols(prior->offsets[k], sizes[v]);
       }
       add(j, prior->residual);
     }
@@ -157,7 +159,8 @@ TEST(MarginalizationTest, PriorHasZeroGradientAtTheOptimum) {
   std::vector<MarginalizationVariable> vars;
   for (size_t v = 0; v < toy.sizes.size(); ++v) vars.push_back({toy.sizes[v], v >= 3 && v <= 7});
   std::vector<LinearizedFactor> factors;
-  for (size_t f = 0; f < toy.factors.size(); ++f) factors.push_back(toy.Linearize(static_cast<int>(f), x_opt));
+  for (size_t f = 0; f < toy.factors.size(); ++f)
+    factors.push_back(toy.Linearize(static_cast<int>(f), x_opt));
   LinearPrior prior;
   std::string why;
   ASSERT_TRUE(Marginalize(vars, factors, MarginalizationOptions(), &prior, &why)) << why;
@@ -211,8 +214,9 @@ struct PosePriorFixture {
     for (int c = 0; c < 2; ++c) {
       for (int y = 0; y < h; ++y) {
         for (int x = 0; x < w; ++x) {
-          level.Channel(c)[y * w + x] = static_cast<float>(
-              std::sin(0.37 * x + 0.21 * y * (c + 1)) + 0.6 * std::cos(0.29 * y - 0.13 * x * (2 - c)));
+          level.Channel(c)[y * w + x] =
+              static_cast<float>(std::sin(0.37 * x + 0.21 * y * (c + 1)) +
+                                 0.6 * std::cos(0.29 * y - 0.13 * x * (2 - c)));
         }
       }
     }
@@ -261,8 +265,8 @@ TEST(MarginalizationTest, PriorEnergyIsInvariantToAGaugeTransform) {
   ASSERT_EQ(fx.prior.variables, (std::vector<int>{1, 2, 3}));
   std::vector<std::vector<double>> x0;
   for (int i = 1; i < 4; ++i) x0.emplace_back(fx.poses[i].begin(), fx.poses[i].end());
-  LinearPriorCost cost(fx.prior, {PriorBlockKind::kPose, PriorBlockKind::kPose, PriorBlockKind::kPose},
-                       x0, false);
+  LinearPriorCost cost(
+      fx.prior, {PriorBlockKind::kPose, PriorBlockKind::kPose, PriorBlockKind::kPose}, x0, false);
   // Infinitesimal gauge: the same left tangent on every pose is in J0's null space.
   Vector6d xi;
   xi << 0.3, -0.2, 0.5, 0.1, 0.2, -0.15;
@@ -272,7 +276,8 @@ TEST(MarginalizationTest, PriorEnergyIsInvariantToAGaugeTransform) {
   // Finite gauge G applied to x0: the energy stays |r0|^2.
   const SE3d g = SE3d::Exp(xi);
   std::vector<std::array<double, 7>> moved(3);
-  for (int i = 0; i < 3; ++i) PoseToParameters(g * PoseFromParameters(x0[i].data()), moved[i].data());
+  for (int i = 0; i < 3; ++i)
+    PoseToParameters(g * PoseFromParameters(x0[i].data()), moved[i].data());
   const double* params[] = {moved[0].data(), moved[1].data(), moved[2].data()};
   Eigen::VectorXd r(cost.num_residuals());
   ASSERT_TRUE(cost.Evaluate(params, r.data(), nullptr));

@@ -113,7 +113,8 @@ TEST(WindowOptimizerTest, WindowStaysBoundedOverALongRunAndMarginalizes) {
   std::vector<int> points_late, blocks_late;
   const int num_keyframes = 24;
   for (int k = 0; k < num_keyframes; ++k) {
-    const WindowResult result = window.AddKeyframe(test::MakeSyntheticKeyframe(Sequence(), 3 * k, 2));
+    const WindowResult result =
+        window.AddKeyframe(test::MakeSyntheticKeyframe(Sequence(), 3 * k, 2));
     EXPECT_LE(window.num_keyframes(), options.max_keyframes);
     EXPECT_EQ(static_cast<int>(result.keyframe_poses.size()), window.num_keyframes());
     EXPECT_EQ(result.num_points, window.num_points());
