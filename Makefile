@@ -5,6 +5,9 @@ BUILD_DIR ?= build
 BUILD_TYPE ?= Release
 JOBS ?= $(shell nproc 2>/dev/null || echo 2)
 DEMO_DIR ?= out/demo
+# LibTorch's OpenMP threads spin while waiting unless told otherwise; on a shared 2-core machine
+# that makes a second busy process 10x slower.
+export OMP_WAIT_POLICY ?= PASSIVE
 
 .PHONY: demo test deps configure build clean
 
