@@ -166,22 +166,33 @@ void PrintComparison(const apps::SequenceRunResult& result, const apps::RunOutpu
   for (const Column& c : columns) std::printf(" %14s", c.name);
   std::printf("\n");
   const double path = columns.front().evaluation->sim3.gt_path_length_m;
-  row("ATE Sim3 rmse [m]", [](const apps::RunEvaluation& e) { return e.sim3.ate.stats.rmse; }, 4);
-  row("ATE Sim3 [% of path]",
-      [&](const apps::RunEvaluation& e) { return path > 0 ? 100.0 * e.sim3.ate.stats.rmse / path : 0.0; },
+  row(
+      "ATE Sim3 rmse [m]", [](const apps::RunEvaluation& e) { return e.sim3.ate.stats.rmse; }, 4);
+  row(
+      "ATE Sim3 [% of path]",
+      [&](const apps::RunEvaluation& e) {
+        return path > 0 ? 100.0 * e.sim3.ate.stats.rmse / path : 0.0;
+      },
       3);
-  row("ATE SE3 rmse [m]", [](const apps::RunEvaluation& e) { return e.ate_rmse_se3; }, 4);
-  row("Sim3 scale", [](const apps::RunEvaluation& e) { return e.sim3.alignment.transform.scale; },
+  row(
+      "ATE SE3 rmse [m]", [](const apps::RunEvaluation& e) { return e.ate_rmse_se3; }, 4);
+  row(
+      "Sim3 scale", [](const apps::RunEvaluation& e) { return e.sim3.alignment.transform.scale; },
       4);
-  row("RPE rmse [m/frame]",
+  row(
+      "RPE rmse [m/frame]",
       [](const apps::RunEvaluation& e) { return e.sim3.rpe.translation.rmse; }, 4);
-  row("RPE rmse [deg/frame]",
+  row(
+      "RPE rmse [deg/frame]",
       [](const apps::RunEvaluation& e) { return e.sim3.rpe.rotation_deg.rmse; }, 4);
-  row("snippet ATE (5 frames) [m]", [](const apps::RunEvaluation& e) { return e.sim3.snippet.mean; },
-      4);
+  row(
+      "snippet ATE (5 frames) [m]",
+      [](const apps::RunEvaluation& e) { return e.sim3.snippet.mean; }, 4);
   if (columns.front().evaluation->sim3.kitti.num_segments > 0) {
-    row("KITTI t_rel [%]", [](const apps::RunEvaluation& e) { return e.sim3.kitti.t_rel_pct; }, 2);
-    row("KITTI r_rel [deg/100m]",
+    row(
+        "KITTI t_rel [%]", [](const apps::RunEvaluation& e) { return e.sim3.kitti.t_rel_pct; }, 2);
+    row(
+        "KITTI r_rel [deg/100m]",
         [](const apps::RunEvaluation& e) { return e.sim3.kitti.r_rel_deg_per_100m; }, 3);
   }
   std::fflush(stdout);
@@ -279,8 +290,9 @@ int Run(const Args& args) {
             << apps::FormatFixed(apps::Percentile(tracking_ms, 50), 2) << " ms, p95 "
             << apps::FormatFixed(apps::Percentile(tracking_ms, 95), 2) << " ms)";
   if (!backend_ms.empty()) {
-    std::cout << "; window per keyframe median " << apps::FormatFixed(apps::Percentile(backend_ms, 50), 1)
-              << " ms, p95 " << apps::FormatFixed(apps::Percentile(backend_ms, 95), 1) << " ms";
+    std::cout << "; window per keyframe median "
+              << apps::FormatFixed(apps::Percentile(backend_ms, 50), 1) << " ms, p95 "
+              << apps::FormatFixed(apps::Percentile(backend_ms, 95), 1) << " ms";
   }
   std::cout << "\n";
   std::cout << "written:     " << config_path;

@@ -25,8 +25,8 @@ void KeyframeOptions::Check() const {
            translation_ratio, "> 0");
   CheckKey(std::isfinite(rotation_deg) && rotation_deg > 0.0 && rotation_deg <= 180.0,
            "rotation_deg", rotation_deg, "in (0, 180]");
-  CheckKey(std::isfinite(residual_ratio) && residual_ratio >= 1.0, "residual_ratio",
-           residual_ratio, ">= 1");
+  CheckKey(std::isfinite(residual_ratio) && residual_ratio >= 1.0, "residual_ratio", residual_ratio,
+           ">= 1");
   CheckKey(std::isfinite(min_inlier_ratio) && min_inlier_ratio >= 0.0 && min_inlier_ratio <= 1.0,
            "min_inlier_ratio", min_inlier_ratio, "in [0, 1]");
   CheckKey(min_interval >= 1, "min_interval", min_interval, ">= 1");
@@ -83,9 +83,8 @@ KeyframeDecision KeyframeManager::Decide(const TrackedFrame& frame) {
                             ? frame.ref_from_cam.translation().norm() / frame.reference_mean_depth
                             : 0.0;
   d.rotation_deg = frame.ref_from_cam.so3().Angle() * 180.0 / M_PI;
-  d.inlier_ratio = frame.num_points > 0
-                       ? static_cast<double>(frame.num_inliers) / frame.num_points
-                       : 1.0;
+  d.inlier_ratio =
+      frame.num_points > 0 ? static_cast<double>(frame.num_inliers) / frame.num_points : 1.0;
   if (first_rmse_ < 0.0) {
     first_rmse_ = frame.rmse;  // DSO: the residual of the first frame after the keyframe
   }

@@ -67,7 +67,7 @@ const char* KeyframeReasonName(KeyframeReason reason);
 struct KeyframeDecision {
   bool new_keyframe = false;
   KeyframeReason reason = KeyframeReason::kNone;
-  int frames_since_keyframe = 0;  // this frame's distance in frames from the current keyframe
+  int frames_since_keyframe = 0;   // this frame's distance in frames from the current keyframe
   double translation_ratio = 0.0;  // |t_kf->cur| / mean_depth(kf) (0 when the depth is unknown)
   double rotation_deg = 0.0;       // angle of R_kf->cur in degrees
   double residual_ratio = 0.0;     // rmse / first rmse after the keyframe (0 when unknown)

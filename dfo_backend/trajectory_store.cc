@@ -26,9 +26,8 @@ void TrajectoryStore::Append(const Entry& entry) {
 void TrajectoryStore::AddFrame(int frame_index, int64_t timestamp_ns, int keyframe_index,
                                const SE3d& kf_from_frame) {
   if (keyframe_index >= 0) {
-    DFO_CHECK(IsKeyframe(keyframe_index))
-        << "frame " << frame_index << " tracked against frame " << keyframe_index
-        << ", which is not a keyframe";
+    DFO_CHECK(IsKeyframe(keyframe_index)) << "frame " << frame_index << " tracked against frame "
+                                          << keyframe_index << ", which is not a keyframe";
   }
   Entry e;
   e.frame_index = frame_index;
@@ -78,9 +77,7 @@ void TrajectoryStore::SetWindowedPose(int frame_index, const SE3d& world_from_kf
   e.windowed_world_from_kf = world_from_kf;
 }
 
-bool TrajectoryStore::Contains(int frame_index) const {
-  return position_.count(frame_index) > 0;
-}
+bool TrajectoryStore::Contains(int frame_index) const { return position_.count(frame_index) > 0; }
 
 bool TrajectoryStore::IsKeyframe(int frame_index) const {
   const auto it = position_.find(frame_index);
@@ -94,13 +91,9 @@ SE3d TrajectoryStore::Pose(const Entry& e, bool windowed) const {
   return (windowed ? kf.windowed_world_from_kf : kf.frontend_world_from_kf) * e.kf_from_frame;
 }
 
-SE3d TrajectoryStore::FrontendPose(int frame_index) const {
-  return Pose(Get(frame_index), false);
-}
+SE3d TrajectoryStore::FrontendPose(int frame_index) const { return Pose(Get(frame_index), false); }
 
-SE3d TrajectoryStore::WindowedPose(int frame_index) const {
-  return Pose(Get(frame_index), true);
-}
+SE3d TrajectoryStore::WindowedPose(int frame_index) const { return Pose(Get(frame_index), true); }
 
 Trajectory TrajectoryStore::FrontendTrajectory() const {
   Trajectory t;

@@ -21,8 +21,8 @@ struct KeyframeData {
   // the bundle-adjusted pose of the keyframe it was tracked against (TrajectoryStore), so that
   // the new keyframe starts consistent with the window.
   SE3d world_from_cam;
-  FeaturePyramid features;   // z-scored feature maps as tracked (planar C x H x W per level)
-  DepthPyramid depth;        // depth per level (m, 0 = invalid) from the frontend's depth source
+  FeaturePyramid features;  // z-scored feature maps as tracked (planar C x H x W per level)
+  DepthPyramid depth;       // depth per level (m, 0 = invalid) from the frontend's depth source
 };
 
 }  // namespace dfo

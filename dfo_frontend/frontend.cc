@@ -200,9 +200,7 @@ TrackedFrame Frontend::Process(const Frame& frame) {
   return finish(out);
 }
 
-int Frontend::MinReferencePoints() const {
-  return std::max(options_.tracker.min_inliers_lost, 12);
-}
+int Frontend::MinReferencePoints() const { return std::max(options_.tracker.min_inliers_lost, 12); }
 
 int Frontend::MinReferenceDepths() const {
   return MinReferencePoints() * options_.tracker.patch_size * options_.tracker.patch_size;

@@ -123,8 +123,8 @@ Canvas DrawCanvas(const std::vector<const std::vector<Eigen::Vector3d>*>& paths,
     Text(img, line, cv::Point(20, y_text), 0.55, kAxisText);
   }
   const int area_top = y_text + 44;
-  c.area = cv::Rect(90, area_top, options.width - 90 - right_margin,
-                    options.height - area_top - 60);
+  c.area =
+      cv::Rect(90, area_top, options.width - 90 - right_margin, options.height - area_top - 60);
   const cv::Rect& area = c.area;
 
   // Equal scale on both axes, data centred in the plot area with a 5% margin.
@@ -281,8 +281,8 @@ void WriteTrajectoriesPlot(const std::string& path, const Trajectory& ground_tru
                            const TrajectoryPlotOptions& options) {
   options.Check();
   // BGR: blue, orange, green, purple, brown, pink (matplotlib's first colours).
-  const cv::Scalar kColours[6] = {{180, 119, 31}, {14, 127, 255}, {44, 160, 44},
-                                  {189, 103, 148}, {75, 86, 140}, {194, 119, 227}};
+  const cv::Scalar kColours[6] = {{180, 119, 31},  {14, 127, 255}, {44, 160, 44},
+                                  {189, 103, 148}, {75, 86, 140},  {194, 119, 227}};
   if (estimates.size() > 6) {
     throw InputError("trajectory plot " + path + ": " + std::to_string(estimates.size()) +
                      " estimates, at most 6 are drawn");
@@ -331,8 +331,7 @@ void WriteTrajectoriesPlot(const std::string& path, const Trajectory& ground_tru
   for (size_t k = 0; k < points.size(); ++k) {
     const int y = legend.y + 18 + 22 * static_cast<int>(k);
     const cv::Scalar colour = k == 0 ? kGroundTruth : kColours[k - 1];
-    cv::line(img, cv::Point(legend.x + 10, y), cv::Point(legend.x + 50, y), colour, 2,
-             cv::LINE_AA);
+    cv::line(img, cv::Point(legend.x + 10, y), cv::Point(legend.x + 50, y), colour, 2, cv::LINE_AA);
     Text(img, k == 0 ? std::string("ground truth") : estimates[k - 1].label,
          cv::Point(legend.x + 60, y + 5), 0.5, kBlack);
   }

@@ -74,8 +74,7 @@ bool IsFinitePose(const SE3d& pose) {
 // Keyframe decisions, pose bookkeeping and the window for one run.
 class KeyframePipeline {
  public:
-  KeyframePipeline(Frontend* frontend, const SequenceRunOptions& options,
-                   SequenceRunResult* result)
+  KeyframePipeline(Frontend* frontend, const SequenceRunOptions& options, SequenceRunResult* result)
       : frontend_(frontend),
         options_(options),
         result_(result),
@@ -83,8 +82,7 @@ class KeyframePipeline {
         external_(frontend->options().reference.policy == "external") {
     if (options.mode != RunMode::kFrontend) {
       if (options.window.pyramid_level >= frontend->options().tracker.num_levels) {
-        throw ConfigError("window.pyramid_level = " +
-                          std::to_string(options.window.pyramid_level) +
+        throw ConfigError("window.pyramid_level = " + std::to_string(options.window.pyramid_level) +
                           " violates < tracker.num_levels (" +
                           std::to_string(frontend->options().tracker.num_levels) + ")");
       }
@@ -156,8 +154,7 @@ class KeyframePipeline {
         for (const auto& [index, pose] : kf.window.keyframe_poses) {
           result_->poses.SetWindowedPose(index, pose);
         }
-        if (kf.window.marginalized_frame_index >= 0 &&
-            IsFinitePose(kf.window.marginalized_pose)) {
+        if (kf.window.marginalized_frame_index >= 0 && IsFinitePose(kf.window.marginalized_pose)) {
           result_->poses.SetWindowedPose(kf.window.marginalized_frame_index,
                                          kf.window.marginalized_pose);
         }
@@ -344,8 +341,9 @@ io::JsonValue MakeRunSummary(const SequenceRunResult& result, const RunEvaluatio
 
   if (result.has_frontend()) SetEvaluation(evaluation, "frontend", &s);
   if (result.has_windowed()) {
-    SetEvaluation(windowed != nullptr ? *windowed : EvaluateEstimate(result, result.WindowedEstimate()),
-                  "windowed", &s);
+    SetEvaluation(
+        windowed != nullptr ? *windowed : EvaluateEstimate(result, result.WindowedEstimate()),
+        "windowed", &s);
   }
   s.Set("keyframes", KeyframesToJson(result));
 
@@ -389,10 +387,10 @@ void WriteFramesCsv(const std::string& path, const SequenceRunResult& result) {
       "total_ms\n";
   for (const FrameRecord& f : result.frames) {
     const TrackedFrame& t = f.tracked;
-    const std::string reason =
-        !f.keyframe ? "" : (f.keyframe_reason == KeyframeReason::kNone
-                                ? "frontend"
-                                : KeyframeReasonName(f.keyframe_reason));
+    const std::string reason = !f.keyframe ? ""
+                                           : (f.keyframe_reason == KeyframeReason::kNone
+                                                  ? "frontend"
+                                                  : KeyframeReasonName(f.keyframe_reason));
     text += std::to_string(t.index) + "," + io::FormatNsAsSeconds(t.timestamp_ns) + "," +
             TrackingStatusName(t.status) + "," + std::to_string(t.reference_index) + "," +
             (t.is_new_reference ? "1" : "0") + "," + std::to_string(t.num_points) + "," +
@@ -451,8 +449,7 @@ RunOutputs WriteRunOutputs(const SequenceRunResult& result, const std::string& o
     options.text_lines = EvaluationPlotLines(e);
     options.text_lines.insert(options.text_lines.begin(), counts.substr(2, counts.size() - 3));
     const std::string p = path(file);
-    io::WriteTrajectoryPlot(p, e.ground_truth, e.alignment.aligned_estimate, e.ate.errors,
-                            options);
+    io::WriteTrajectoryPlot(p, e.ground_truth, e.alignment.aligned_estimate, e.ate.errors, options);
     out.files.push_back(p);
     if (out.plot_path.empty()) out.plot_path = p;
   };

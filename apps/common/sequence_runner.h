@@ -93,8 +93,8 @@ struct SequenceRunOptions {
   std::string label = "dfo_run";                // first word of progress lines
   // kFrontend: no bundle adjustment; kWindowed / kBoth: every keyframe goes to the window.
   RunMode mode = RunMode::kFrontend;
-  KeyframeOptions keyframe;      // the keyframe manager's rules (reference.policy "external")
-  WindowOptions window;          // the sliding window (modes kWindowed, kBoth)
+  KeyframeOptions keyframe;        // the keyframe manager's rules (reference.policy "external")
+  WindowOptions window;            // the sliding window (modes kWindowed, kBoth)
   std::FILE* log_stream = stderr;  // one line per failed bundle adjustment; nullptr = silent
   // For tests (fault injection): called on each keyframe's data just before the window gets it.
   std::function<void(KeyframeData*)> keyframe_filter;
@@ -104,9 +104,9 @@ struct SequenceRunOptions {
 struct KeyframeRecord {
   int frame_index = 0;
   KeyframeReason reason = KeyframeReason::kNone;  // kNone: the frontend's own (internal) switch
-  bool ba_ran = false;          // the keyframe went to the window (modes kWindowed, kBoth)
-  WindowResult window;          // what WindowOptimizer::AddKeyframe returned (when ba_ran)
-  double backend_ms = 0.0;      // wall time of AddKeyframe (BA + marginalisation)
+  bool ba_ran = false;      // the keyframe went to the window (modes kWindowed, kBoth)
+  WindowResult window;      // what WindowOptimizer::AddKeyframe returned (when ba_ran)
+  double backend_ms = 0.0;  // wall time of AddKeyframe (BA + marginalisation)
 };
 
 // One processed frame.
@@ -119,8 +119,8 @@ struct FrameRecord {
   double tracking_ms = 0.0;          // FrontendTimings::tracking_ms
   bool keyframe = false;             // the frame became a keyframe
   KeyframeReason keyframe_reason = KeyframeReason::kNone;
-  double backend_ms = 0.0;           // window AddKeyframe time (keyframes only, else 0)
-  double total_ms = 0.0;             // load + Frontend::Process + keyframe handling + backend
+  double backend_ms = 0.0;  // window AddKeyframe time (keyframes only, else 0)
+  double total_ms = 0.0;    // load + Frontend::Process + keyframe handling + backend
 };
 
 // Everything a run produced.
@@ -131,7 +131,7 @@ struct SequenceRunResult {
   std::string error;                // what stopped the run early; "" when every frame ran
   double wall_s = 0.0;              // wall time of the loop (loading included)
   RunMode mode = RunMode::kFrontend;
-  TrajectoryStore poses;                 // every processed frame, relative to its keyframe
+  TrajectoryStore poses;                  // every processed frame, relative to its keyframe
   std::vector<KeyframeRecord> keyframes;  // in order
 
   // Frontend-only poses of the processed frames (stamped), in order: the store's frontend

@@ -56,9 +56,8 @@ TEST(BackendConfig, SchemaDefaultsEqualWindowOptionsDefaults) {
   // The deliberate difference: threads come from run.threads, and run.deterministic (default
   // true) makes Ceres single-threaded.
   EXPECT_EQ(w.num_threads, 1);
-  const io::Config fast =
-      io::LoadConfigFromString("run:\n  deterministic: false\n  threads: 3\n", "f.yaml",
-                               io::DfoSchema());
+  const io::Config fast = io::LoadConfigFromString("run:\n  deterministic: false\n  threads: 3\n",
+                                                   "f.yaml", io::DfoSchema());
   EXPECT_EQ(apps::WindowOptionsFromConfig(fast).num_threads, 3);
   EXPECT_EQ(apps::WindowOptionsFromConfig(fast).max_solver_time_s, d.max_solver_time_s);
 }
@@ -150,9 +149,9 @@ TEST(BackendConfig, ContradictionsNameTheKeys) {
     EXPECT_NE(std::string(e.what()).find("keyframe.max_interval"), std::string::npos) << e.what();
   }
   // A ratio <= 0 is already outside the schema's range: the loader names file, key and line.
-  EXPECT_THROW(io::LoadConfigFromString("keyframe:\n  translation_ratio: 0\n", "zero.yaml",
-                                        io::DfoSchema()),
-               ConfigError);
+  EXPECT_THROW(
+      io::LoadConfigFromString("keyframe:\n  translation_ratio: 0\n", "zero.yaml", io::DfoSchema()),
+      ConfigError);
   EXPECT_THROW(apps::ParseRunMode("window"), ConfigError);
   EXPECT_STREQ(apps::RunModeName(apps::ParseRunMode("both")), "both");
 }

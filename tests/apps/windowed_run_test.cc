@@ -96,8 +96,8 @@ TEST(WindowedRun, BothTrajectoriesFromOneFrontendPass) {
     const apps::FrameRecord& f = r.frames[i];
     // The frontend-only trajectory is the frontend's own estimate (relative poses composed on
     // the frontend's keyframe poses give it back up to rounding).
-    EXPECT_TRUE(frontend_only[i].world_from_cam.Matrix().isApprox(
-        f.tracked.world_from_cam.Matrix(), 1e-9))
+    EXPECT_TRUE(
+        frontend_only[i].world_from_cam.Matrix().isApprox(f.tracked.world_from_cam.Matrix(), 1e-9))
         << "frame " << i;
     EXPECT_TRUE(Finite(windowed[i].world_from_cam)) << "frame " << i;
   }
@@ -115,9 +115,9 @@ TEST(WindowedRun, BothTrajectoriesFromOneFrontendPass) {
 
   const std::string out = test::MakeTempDir("windowed_run_files");
   const apps::RunOutputs o = apps::WriteRunOutputs(r, out, /*plot=*/true);
-  for (const char* name : {"frontend_kitti.txt", "frontend_tum.txt", "windowed_kitti.txt",
-                           "windowed_tum.txt", "keyframes_tum.txt", "frames.csv", "summary.json",
-                           "comparison_trajectory.png"}) {
+  for (const char* name :
+       {"frontend_kitti.txt", "frontend_tum.txt", "windowed_kitti.txt", "windowed_tum.txt",
+        "keyframes_tum.txt", "frames.csv", "summary.json", "comparison_trajectory.png"}) {
     EXPECT_FALSE(ReadFile(out + "/" + name).empty()) << name;
   }
   const io::JsonValue& s = o.summary;
@@ -249,9 +249,10 @@ TEST(WindowedRun, WindowStateIsBoundedOverALongRun) {
   }
   EXPECT_GE(marginalized, static_cast<int>(r.keyframes.size()) - max_kf);
   EXPECT_EQ(r.poses.num_frames(), static_cast<int>(r.frames.size()));
-  std::printf("[ figures  ] %zu frames, %zu keyframes, %d marginalised; window peaks: %d keyframes, "
-              "%d points, %d residual blocks\n",
-              r.frames.size(), r.keyframes.size(), marginalized, peak_kf, peak_points, peak_blocks);
+  std::printf(
+      "[ figures  ] %zu frames, %zu keyframes, %d marginalised; window peaks: %d keyframes, "
+      "%d points, %d residual blocks\n",
+      r.frames.size(), r.keyframes.size(), marginalized, peak_kf, peak_points, peak_blocks);
 }
 
 }  // namespace

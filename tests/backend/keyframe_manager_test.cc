@@ -1,9 +1,9 @@
 #include "dfo_backend/keyframe_manager.h"
 
+#include <gtest/gtest.h>
+
 #include <cmath>
 #include <string>
-
-#include <gtest/gtest.h>
 
 #include "dfo_core/error.h"
 

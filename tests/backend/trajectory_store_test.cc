@@ -91,11 +91,11 @@ TEST(TrajectoryStoreTest, FrameWithoutKeyframeIsAbsolute) {
 
 TEST(TrajectoryStoreTest, ContractViolationsThrowInternalError) {
   TrajectoryStore s = MakeStore();
-  EXPECT_THROW(s.AddFrame(5, 50, 3, SE3d()), InternalError);   // index not increasing
-  EXPECT_THROW(s.AddFrame(6, 60, 4, SE3d()), InternalError);   // 4 is not a keyframe
-  EXPECT_THROW(s.PromoteToKeyframe(4), InternalError);         // not the last frame
-  EXPECT_THROW(s.SetWindowedPose(4, SE3d()), InternalError);   // not a keyframe
-  EXPECT_THROW(s.WindowedPose(42), InternalError);             // unknown frame
+  EXPECT_THROW(s.AddFrame(5, 50, 3, SE3d()), InternalError);  // index not increasing
+  EXPECT_THROW(s.AddFrame(6, 60, 4, SE3d()), InternalError);  // 4 is not a keyframe
+  EXPECT_THROW(s.PromoteToKeyframe(4), InternalError);        // not the last frame
+  EXPECT_THROW(s.SetWindowedPose(4, SE3d()), InternalError);  // not a keyframe
+  EXPECT_THROW(s.WindowedPose(42), InternalError);            // unknown frame
 }
 
 }  // namespace

@@ -107,8 +107,8 @@ TEST_F(FrontendReferenceTest, MakeLastFrameReferenceHandsOutTheKeyframe) {
   EXPECT_EQ(t3.reference_index, 2);
   EXPECT_NE(t3.status, TrackingStatus::kLost);
   // The tracked pose relative to the new reference composes to the world pose.
-  EXPECT_TRUE((kf.world_from_cam * t3.ref_from_cam).Matrix().isApprox(t3.world_from_cam.Matrix(),
-                                                                      1e-9));
+  EXPECT_TRUE(
+      (kf.world_from_cam * t3.ref_from_cam).Matrix().isApprox(t3.world_from_cam.Matrix(), 1e-9));
 }
 
 // A frame without usable depth cannot become the reference: the call refuses and tracking goes
