@@ -193,10 +193,10 @@ ConfigSchema BuildSchema() {
   s.AddString("window.linear_solver", "sparse_schur",
               "Ceres linear solver: SPARSE_SCHUR with SuiteSparse, or DENSE_SCHUR")
       .OneOf({"sparse_schur", "dense_schur"});
-  s.AddInt("window.max_iterations", 8,
+  s.AddInt("window.max_iterations", 5,
            "Levenberg-Marquardt iterations per solve (up to two solves per keyframe)")
       .Min(1);
-  s.AddDouble("window.max_solver_time_s", 0.2,
+  s.AddDouble("window.max_solver_time_s", 0.1,
               "Wall-time limit of one solve in seconds (ignored with run.deterministic: true)")
       .GreaterThan(0);
   s.AddDouble("window.min_inverse_depth", 1e-3,
