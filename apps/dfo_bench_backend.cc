@@ -50,6 +50,7 @@ options:
   --fej                  WindowOptions::first_estimate_jacobians = true
   --prior-weight W       WindowOptions::prior_weight (default 1)
   --min-point-fraction F WindowOptions::min_point_fraction (1 = always the oldest leaves)
+  --eigen-floor F        WindowOptions::relative_eigenvalue_floor
   --solver NAME          sparse_schur (default) or dense_schur
   --no-marginalization   drop instead of marginalising
   --seed S               synthetic sequence seed (default 1)
@@ -107,6 +108,8 @@ Args Parse(int argc, char** argv) {
       args.window.prior_weight = std::atof(next());
     } else if (flag == "--min-point-fraction") {
       args.window.min_point_fraction = std::atof(next());
+    } else if (flag == "--eigen-floor") {
+      args.window.relative_eigenvalue_floor = std::atof(next());
     } else if (flag == "--solver") {
       args.window.linear_solver = next();
     } else if (flag == "--no-marginalization") {

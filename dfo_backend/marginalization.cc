@@ -1,6 +1,7 @@
 #include "dfo_backend/marginalization.h"
 
 #include <Eigen/Eigenvalues>
+#include <Eigen/QR>
 #include <cmath>
 #include <set>
 #include <sstream>
@@ -253,6 +254,41 @@ bool Marginalize(const std::vector<MarginalizationVariable>& variables,
   }
   *prior = std::move(out);
   return true;
+}
+
+bool ProjectOutNullspace(const Eigen::MatrixXd& nullspace, double relative_eigenvalue_floor,
+                         LinearPrior* prior) {
+  const int n = static_cast<int>(prior->jacobian.cols());
+  DFO_CHECK(nullspace.rows() == n) << nullspace.rows() << " vs " << n;
+  // Orthonormal basis Q of the null space; P = I - Q Q^T.
+  const Eigen::HouseholderQR<Eigen::MatrixXd> qr(nullspace);
+  const Eigen::MatrixXd q =
+      qr.householderQ() * Eigen::MatrixXd::Identity(n, std::min<int>(n, nullspace.cols()));
+  const Eigen::MatrixXd p = Eigen::MatrixXd::Identity(n, n) - q * q.transpose();
+  const Eigen::MatrixXd j = prior->jacobian * p;
+  Eigen::MatrixXd h = j.transpose() * j;
+  h = 0.5 * (h + h.transpose()).eval();
+  const Eigen::VectorXd b = j.transpose() * prior->residual;
+  const Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd> eig(h);
+  if (eig.info() != Eigen::Success) return false;
+  const Eigen::VectorXd& l = eig.eigenvalues();
+  const double l_max = l.maxCoeff();
+  if (!(l_max > 0.0) || !std::isfinite(l_max)) return false;
+  std::vector<int> keep;
+  for (int i = 0; i < n; ++i) {
+    if (l(i) > relative_eigenvalue_floor * l_max) keep.push_back(i);
+  }
+  Eigen::MatrixXd jacobian(keep.size(), n);
+  Eigen::VectorXd residual(keep.size());
+  for (size_t r = 0; r < keep.size(); ++r) {
+    const Eigen::VectorXd v = eig.eigenvectors().col(keep[r]);
+    const double sqrt_l = std::sqrt(l(keep[r]));
+    jacobian.row(r) = sqrt_l * v.transpose();
+    residual(r) = v.dot(b) / sqrt_l;
+  }
+  prior->jacobian = std::move(jacobian);
+  prior->residual = std::move(residual);
+  return prior->rank() > 0;
 }
 
 LinearPriorCost::LinearPriorCost(LinearPrior prior, std::vector<PriorBlockKind> kinds,

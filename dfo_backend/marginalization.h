@@ -82,6 +82,17 @@ bool Marginalize(const std::vector<MarginalizationVariable>& variables,
                  const std::vector<LinearizedFactor>& factors,
                  const MarginalizationOptions& options, LinearPrior* prior, std::string* why);
 
+// Removes the directions spanned by the columns of `nullspace` (tangent coordinates of the
+// prior's variables, stacked as in prior->jacobian) from the prior: with P the orthogonal
+// projector onto their complement, H = P J0^T J0 P and b = P J0^T r0 are factored again
+// (eigenvalues below relative_eigenvalue_floor * max dropped). DSO does the same with its 7
+// gauge directions (EnergyFunctional::orthogonalize): relinearising the factors of kept poses at
+// different points otherwise gives the prior spurious information along the gauge (measured: a
+// merged prior of rank 26 on 5 poses, whose minimum rotated every pose by 0.7 rad). Returns
+// false when nothing is left.
+bool ProjectOutNullspace(const Eigen::MatrixXd& nullspace, double relative_eigenvalue_floor,
+                         LinearPrior* prior);
+
 // How a prior block's tangent difference x [-] x0 is formed.
 enum class PriorBlockKind {
   kEuclidean,  // x - x0, ambient size = tangent size

@@ -655,7 +655,22 @@ void WindowOptimizer::MarginalizeKeyframe(int position, WindowResult* result) {
       marg_options.relative_eigenvalue_floor = options_.relative_eigenvalue_floor;
       LinearPrior prior;
       std::string why;
-      if (Marginalize(variables, factors, marg_options, &prior, &why)) {
+      bool ok = Marginalize(variables, factors, marg_options, &prior, &why);
+      if (ok) {
+        // Gauge of the kept poses at x0 (left perturbations of world_from_cam): a common
+        // [upsilon; omega] for all (6 directions) and the scale, upsilon_i = t_i (7th).
+        const int n = static_cast<int>(prior.jacobian.cols());
+        Eigen::MatrixXd nullspace = Eigen::MatrixXd::Zero(n, 7);
+        for (size_t b = 0; b < prior.variables.size(); ++b) {
+          const KeyframeState* kf = keyframes_[prior.variables[b]].get();
+          nullspace.block<6, 6>(prior.offsets[b], 0).setIdentity();
+          nullspace.block<3, 1>(prior.offsets[b], 6) =
+              Eigen::Vector3d(kf->pose[4], kf->pose[5], kf->pose[6]);
+        }
+        ok = ProjectOutNullspace(nullspace, options_.relative_eigenvalue_floor, &prior);
+        if (!ok) why = "no information left after removing the gauge directions";
+      }
+      if (ok) {
         std::vector<PriorBlockKind> kinds;
         std::vector<std::vector<double>> x0;
         for (int v : prior.variables) {
