@@ -8,6 +8,7 @@
 #include <gtest/gtest.h>
 
 #include <Eigen/Dense>
+#include <Eigen/QR>
 #include <cmath>
 #include <random>
 
@@ -290,6 +291,37 @@ TEST(MarginalizationTest, PriorEnergyIsInvariantToAGaugeTransform) {
   const double* params2[] = {x0[0].data(), shifted.data(), x0[2].data()};
   ASSERT_TRUE(cost.Evaluate(params2, r.data(), nullptr));
   EXPECT_GT(std::abs(r.squaredNorm() - e0), 1e-3);
+}
+
+TEST(MarginalizationTest, ProjectOutNullspaceRemovesOnlyThoseDirections) {
+  std::mt19937 rng(9);
+  std::normal_distribution<double> n(0.0, 1.0);
+  LinearPrior prior;
+  prior.variables = {0, 1};
+  prior.offsets = {0, 3};
+  prior.jacobian = Eigen::MatrixXd(6, 6);
+  prior.residual = Eigen::VectorXd(6);
+  for (int i = 0; i < 36; ++i) prior.jacobian.data()[i] = n(rng);
+  for (int i = 0; i < 6; ++i) prior.residual(i) = n(rng);
+  Eigen::MatrixXd nullspace = Eigen::MatrixXd::Zero(6, 2);
+  nullspace.block<3, 1>(0, 0) = Eigen::Vector3d(1, 0, 0);
+  nullspace.block<3, 1>(3, 0) = Eigen::Vector3d(1, 0, 0);
+  nullspace(2, 1) = 1.0;
+  const LinearPrior original = prior;
+  ASSERT_TRUE(ProjectOutNullspace(nullspace, 1e-10, &prior));
+  EXPECT_EQ(prior.rank(), 4);
+  EXPECT_LT((prior.jacobian * nullspace).cwiseAbs().maxCoeff(), 1e-12);
+  // On the complement the quadratic model is unchanged up to a constant: gradient and Hessian
+  // of |r + J P dx|^2 equal the originals' projected ones.
+  const Eigen::MatrixXd q =
+      nullspace.householderQr().householderQ() * Eigen::MatrixXd::Identity(6, 2);
+  const Eigen::MatrixXd p = Eigen::MatrixXd::Identity(6, 6) - q * q.transpose();
+  const Eigen::MatrixXd h0 = p * original.jacobian.transpose() * original.jacobian * p;
+  const Eigen::MatrixXd h1 = prior.jacobian.transpose() * prior.jacobian;
+  EXPECT_LT((h0 - h1).cwiseAbs().maxCoeff(), 1e-10);
+  const Eigen::VectorXd b0 = p * original.jacobian.transpose() * original.residual;
+  const Eigen::VectorXd b1 = prior.jacobian.transpose() * prior.residual;
+  EXPECT_LT((b0 - b1).cwiseAbs().maxCoeff(), 1e-10);
 }
 
 TEST(MarginalizationTest, PriorCostPassesGradientChecker) {

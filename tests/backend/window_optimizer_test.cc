@@ -151,6 +151,18 @@ TEST(WindowOptimizerTest, WindowStaysBoundedOverALongRunAndMarginalizes) {
     EXPECT_TRUE(in_window) << f;
   }
   EXPECT_GT(window.prior()->prior().rank(), 0);
+  // The prior carries no information along the gauge of its linearisation point (a common left
+  // motion of all its poses, and the scale): 7 directions projected out.
+  const LinearPrior& lp = window.prior()->prior();
+  const int n = static_cast<int>(lp.jacobian.cols());
+  EXPECT_LE(lp.rank(), n - 7);
+  Eigen::MatrixXd nullspace = Eigen::MatrixXd::Zero(n, 7);
+  for (size_t b = 0; b < lp.variables.size(); ++b) {
+    const std::vector<double>& x0 = window.prior()->x0()[b];
+    nullspace.block<6, 6>(lp.offsets[b], 0).setIdentity();
+    nullspace.block<3, 1>(lp.offsets[b], 6) = Eigen::Vector3d(x0[4], x0[5], x0[6]);
+  }
+  EXPECT_LT((lp.jacobian * nullspace).norm(), 1e-8 * lp.jacobian.norm() * nullspace.norm());
 }
 
 TEST(WindowOptimizerTest, MarginalizationOffOnlyDrops) {
