@@ -591,15 +591,17 @@ void WindowOptimizer::MarginalizeKeyframe(int position, WindowResult* result) {
       variables.push_back({kPoseTangentSize, kf->id == leaving_id});
     }
     // First estimates: the pose values at which the current prior was linearised.
-    std::map<int, const double*> first_estimate;
+    std::map<int, std::array<double, kPoseAmbientSize>> first_estimate;
     if (options_.first_estimate_jacobians && prior_) {
       for (size_t b = 0; b < prior_keyframe_ids_.size(); ++b) {
-        first_estimate[prior_keyframe_ids_[b]] = prior_->x0()[b].data();
+        std::array<double, kPoseAmbientSize> x;
+        std::copy(prior_->x0()[b].begin(), prior_->x0()[b].end(), x.begin());
+        first_estimate[prior_keyframe_ids_[b]] = x;
       }
     }
-    auto linearization_pose = [&](const KeyframeState* kf) {
+    auto linearization_pose = [&](const KeyframeState* kf) -> const double* {
       auto it = first_estimate.find(kf->id);
-      return it != first_estimate.end() ? it->second : kf->pose;
+      return it != first_estimate.end() ? it->second.data() : kf->pose;
     };
     std::vector<LinearizedFactor> factors;
     int marginalized_points = 0;
@@ -661,11 +663,12 @@ void WindowOptimizer::MarginalizeKeyframe(int position, WindowResult* result) {
         // [upsilon; omega] for all (6 directions) and the scale, upsilon_i = t_i (7th).
         const int n = static_cast<int>(prior.jacobian.cols());
         Eigen::MatrixXd nullspace = Eigen::MatrixXd::Zero(n, 7);
+        // With first-estimate Jacobians the prior's linearisation point is the first estimate
+        // of each pose that has one (its Jacobians were taken there), else the current value.
         for (size_t b = 0; b < prior.variables.size(); ++b) {
-          const KeyframeState* kf = keyframes_[prior.variables[b]].get();
+          const double* x = linearization_pose(keyframes_[prior.variables[b]].get());
           nullspace.block<6, 6>(prior.offsets[b], 0).setIdentity();
-          nullspace.block<3, 1>(prior.offsets[b], 6) =
-              Eigen::Vector3d(kf->pose[4], kf->pose[5], kf->pose[6]);
+          nullspace.block<3, 1>(prior.offsets[b], 6) = Eigen::Vector3d(x[4], x[5], x[6]);
         }
         ok = ProjectOutNullspace(nullspace, options_.relative_eigenvalue_floor, &prior);
         if (!ok) why = "no information left after removing the gauge directions";
@@ -673,12 +676,19 @@ void WindowOptimizer::MarginalizeKeyframe(int position, WindowResult* result) {
       if (ok) {
         std::vector<PriorBlockKind> kinds;
         std::vector<std::vector<double>> x0;
-        for (int v : prior.variables) {
-          const KeyframeState* kf = keyframes_[v].get();  // pose variables come first
+        // The factors' residuals were taken at the current poses: re-express the prior about its
+        // linearisation points, r0 <- r0 + J0 (x_current [-] x0) (a no-op without FEJ).
+        Eigen::VectorXd shift = Eigen::VectorXd::Zero(prior.jacobian.cols());
+        for (size_t b = 0; b < prior.variables.size(); ++b) {
+          const KeyframeState* kf = keyframes_[prior.variables[b]].get();  // poses come first
+          const double* x = linearization_pose(kf);
           prior_keyframe_ids_.push_back(kf->id);
           kinds.push_back(PriorBlockKind::kPose);
-          x0.emplace_back(kf->pose, kf->pose + kPoseAmbientSize);
+          x0.emplace_back(x, x + kPoseAmbientSize);
+          shift.segment<6>(prior.offsets[b]) =
+              (PoseFromParameters(kf->pose) * PoseFromParameters(x).Inverse()).Log();
         }
+        prior.residual += prior.jacobian * shift;
         prior_ = std::make_unique<LinearPriorCost>(
             std::move(prior), std::move(kinds), std::move(x0), options_.first_estimate_jacobians);
       } else {
