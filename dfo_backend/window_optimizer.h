@@ -101,6 +101,9 @@ struct WindowOptions {
   bool marginalization = true;
   // backend.first_estimate_jacobians: the prior's Jacobian stays the one at its linearisation
   // point, and factors of prior-connected poses are linearised at their first estimates.
+  // Experimental: measured harmful on the synthetic bench (dfo_bench_backend --fej), because a
+  // feature-metric Jacobian taken at a first-estimate projection samples the image gradient at
+  // the wrong pixel (DSO keeps only the geometric part at the first estimate); keep it off.
   bool first_estimate_jacobians = false;
   // backend.prior_weight: weight of the marginalisation prior in each solve, in (0, 1]
   // (< 1 softens the inconsistency of relinearising prior-connected poses).
