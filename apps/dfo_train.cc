@@ -283,6 +283,7 @@ void WriteDepth(learned::Trainer& trainer, const Args& args) {
       OpenTrainingSequence(args.sequence_dir, o.network.input_width, o.network.input_height);
   const PinholeCamera native = seq.native_camera();
   std::filesystem::create_directories(args.write_depth_dir);
+  double sum_median = 0.0;
   for (size_t i = 0; i < seq.size(); ++i) {
     const torch::Tensor image = learned::ImageToTensor(ToRgb(seq.LoadImage(i)));
     torch::Tensor depth = trainer.PredictDepth(image)[0];
@@ -293,13 +294,15 @@ void WriteDepth(learned::Trainer& trainer, const Args& args) {
                            .align_corners(false))
                 .squeeze()
                 .contiguous();
+    sum_median += depth.median().item<double>();
     ImageF out(native.width, native.height, 1);
     std::copy(depth.data_ptr<float>(), depth.data_ptr<float>() + depth.numel(), out.data());
     const std::string name = std::filesystem::path(seq.frame(i).image_path).filename().string();
     io::WriteDepthPng(args.write_depth_dir + "/" + name, out, 256.0);
   }
   std::cout << "dfo_train: wrote " << seq.size() << " depth maps to " << args.write_depth_dir
-            << "\n";
+            << " (mean of the per-image median depths " << sum_median / seq.size() << " m, model "
+            << "iteration " << trainer.iteration() << ")\n";
 }
 
 int Run(const Args& args) {
@@ -393,7 +396,7 @@ int Run(const Args& args) {
     std::snprintf(
         buf, sizeof(buf),
         "dfo_train: it %d/%d (%.1f%%) %s  loss %.4f (ap %.4f sm %.4f sp %.4f ae %.4f)  "
-        "gn ok %.0f%%  depth %.1f m  %.2f it/s  ETA %s",
+        "gn ok %.0f%%  median depth %.1f m  %.2f it/s  ETA %s",
         r.iteration, options.iterations, 100.0 * r.iteration / options.iterations, r.stage.c_str(),
         r.total, r.appearance, r.smoothness, r.sparsity, r.reconstruction, 100.0 * r.gn_ok_ratio,
         r.mean_depth, rate,

@@ -57,11 +57,13 @@ ConfigSchema BuildTrainSchema() {
   s.AddDouble("loss.ae_weight", 0.01, "lambda_ae (autoencoder reconstruction in the joint stage)")
       .Min(0);
   s.AddDouble("loss.depth_mean_m", 10.0,
-              "Scale gauge: depths normalised to this batch mean (m) for alignment and warping; "
+              "Scale gauge: depths normalised to this batch geometric mean (m) for alignment and "
+              "warping; "
               "0 = off")
       .Min(0);
-  s.AddDouble("loss.depth_prior_weight", 0.01,
-              "Weight of log(raw batch mean depth / depth_mean_m)^2 (keeps the scale metric-ish)")
+  s.AddDouble(
+       "loss.depth_prior_weight", 0.01,
+       "Weight of log(raw geometric mean depth / depth_mean_m)^2 (keeps the scale metric-ish)")
       .Min(0);
 
   s.AddSection("augment", "Augmentation, identical for the three frames of a snippet.");

@@ -33,9 +33,9 @@ struct LossOptions {
   double sparsity_target = 0.1;   // rho, the target mask density, in (0, 1)
   double ae_weight = 0.01;        // lambda_ae, >= 0
   // Scale gauge of the joint stage (not in the paper; see training.h): depths are normalised to
-  // this batch mean (metres) before alignment and warping, 0 = off (then the scale drifts freely),
-  // else > 0; and a prior depth_prior_weight * log(batch mean / depth_mean_m)^2 on the raw
-  // output, >= 0.
+  // this batch geometric mean (metres) before alignment and warping, 0 = off (then the scale
+  // drifts freely), else > 0; and a prior depth_prior_weight * log(geometric mean /
+  // depth_mean_m)^2 on the raw output, >= 0.
   double depth_mean_m = 10.0;
   double depth_prior_weight = 0.01;
 

@@ -15,9 +15,9 @@
 //   minimum reprojection: a pixel occluded in one source is usually visible in the other), plus
 //   lambda_sm / 2^l edge-aware smoothness of the disparity 1 / D_l; lambda_sp KL sparsity of every
 //   level's mask toward rho_l; lambda_ae autoencoder reconstruction. Scale gauge (not in the
-//   paper): D is normalised to a batch mean of loss.depth_mean_m before the alignment and the
-//   warping, and a weak prior holds the raw batch mean there; without it the unobservable scale
-//   drifted to the sigmoid's saturated end (mean depth 0.1 m after 20 iterations, measured).
+//   paper): D is normalised to a batch geometric mean of loss.depth_mean_m before the alignment
+//   and the warping, and a weak prior holds the raw geometric mean there; without it the
+//   unobservable scale drifted to the sigmoid's saturated end (0.1 m after 20 iterations).
 // The autoencoder stage trains the feature network alone on reconstruction + sparsity.
 #ifndef DFO_FRONTEND_LEARNED_INTERNAL_TRAINING_H_
 #define DFO_FRONTEND_LEARNED_INTERNAL_TRAINING_H_
@@ -127,7 +127,7 @@ struct StepRecord {
   double learning_rate = 0.0;
   double temperature = 0.0;
   double gn_ok_ratio = 0.0;  // fraction of alignments whose finest level succeeded
-  double mean_depth = 0.0;   // mean predicted depth of the batch's targets (m)
+  double mean_depth = 0.0;   // median predicted depth of the batch's targets (m)
   double seconds = 0.0;      // wall time of the step
 };
 
