@@ -68,7 +68,14 @@ DepthPyramid GroundTruthDepthSource::Compute(const Frame& frame, int num_levels)
 
 std::unique_ptr<DepthSource> MakeDepthSource(const std::string& name) {
   if (name == "gt") return std::make_unique<GroundTruthDepthSource>();
-  throw ConfigError("frontend.depth = " + name + " violates one of {gt}");
+  if (name == "learned") {
+    // See MakeFeatureSource: the depth network needs a model loaded by the application.
+    throw ConfigError(
+        "frontend.depth = learned: the learned depth source comes from a model file loaded by "
+        "the application (learned.model; dfo_run and dfo_bench do this), not from "
+        "MakeDepthSource");
+  }
+  throw ConfigError("frontend.depth = " + name + " violates one of {gt, learned}");
 }
 
 }  // namespace dfo

@@ -43,7 +43,8 @@ class GroundTruthDepthSource : public DepthSource {
 };
 
 // Creates the depth source called `name` ("gt"). Throws ConfigError naming the value and the
-// known names otherwise.
+// known names otherwise; for "learned" the ConfigError says that the learned source comes from a
+// model file loaded by the application (MakeLearnedDepthSource in dfo::learned).
 std::unique_ptr<DepthSource> MakeDepthSource(const std::string& name);
 
 }  // namespace dfo

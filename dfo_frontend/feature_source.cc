@@ -160,7 +160,15 @@ FeaturePyramid HandmadeFeatureSource::Compute(const Frame& frame, int num_levels
 std::unique_ptr<FeatureSource> MakeFeatureSource(const std::string& name,
                                                  const HandmadeFeatureOptions& handmade) {
   if (name == "handmade") return std::make_unique<HandmadeFeatureSource>(handmade);
-  throw ConfigError("frontend.features = " + name + " violates one of {handmade}");
+  if (name == "learned") {
+    // The learned source needs a loaded model (LibTorch, dfo::learned), which dfo::frontend
+    // cannot link; the application makes it and hands it to the Frontend.
+    throw ConfigError(
+        "frontend.features = learned: the learned feature source comes from a model file loaded "
+        "by the application (learned.model; dfo_run and dfo_bench do this), not from "
+        "MakeFeatureSource");
+  }
+  throw ConfigError("frontend.features = " + name + " violates one of {handmade, learned}");
 }
 
 }  // namespace dfo

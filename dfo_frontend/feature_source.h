@@ -68,7 +68,8 @@ class HandmadeFeatureSource : public FeatureSource {
 };
 
 // Creates the feature source called `name` ("handmade"). Throws ConfigError naming the value and
-// the known names otherwise.
+// the known names otherwise; for "learned" the ConfigError says that the learned source comes
+// from a model file loaded by the application (MakeLearnedFeatureSource in dfo::learned).
 std::unique_ptr<FeatureSource> MakeFeatureSource(const std::string& name,
                                                  const HandmadeFeatureOptions& handmade = {});
 

@@ -70,10 +70,14 @@ void CheckFrame(const Frame& frame) {
 
 }  // namespace
 
-Frontend::Frontend(const FrontendOptions& options)
+Frontend::Frontend(const FrontendOptions& options) : Frontend(options, nullptr, nullptr) {}
+
+Frontend::Frontend(const FrontendOptions& options, std::unique_ptr<FeatureSource> features,
+                   std::unique_ptr<DepthSource> depth)
     : options_((options.Check(), options)),
-      features_(MakeFeatureSource(options.features, options.handmade)),
-      depth_(MakeDepthSource(options.depth)),
+      features_(features ? std::move(features)
+                         : MakeFeatureSource(options.features, options.handmade)),
+      depth_(depth ? std::move(depth) : MakeDepthSource(options.depth)),
       tracker_(options.tracker),
       state_(std::make_unique<State>()) {}
 

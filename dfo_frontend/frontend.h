@@ -28,9 +28,12 @@ namespace dfo {
 
 // Options of the frontend (YAML section "frontend"; nested structs are sub-sections).
 struct FrontendOptions {
-  // Feature source name: "handmade" (learned features arrive with the networks).
+  // Feature source name: "handmade" (HandmadeFeatureSource) or "learned" (the feature network of
+  // a model file; the application loads the model and passes the source to the Frontend
+  // constructor, see dfo_frontend/learned/learned_sources.h).
   std::string features = "handmade";
-  // Depth source name: "gt" (Frame::depth_m; learned depth arrives with the networks).
+  // Depth source name: "gt" (Frame::depth_m) or "learned" (the depth network of a model file,
+  // passed to the constructor like the learned features).
   std::string depth = "gt";
   // Options of the hand-made features (used when features == "handmade").
   HandmadeFeatureOptions handmade;
@@ -57,8 +60,15 @@ struct FrontendTimings {
 // Frame-to-reference visual odometry frontend.
 class Frontend {
  public:
-  // Throws ConfigError on bad options (FrontendOptions::Check, unknown source names).
+  // Throws ConfigError on bad options (FrontendOptions::Check, unknown source names, and
+  // "learned" sources: those need the constructor below).
   explicit Frontend(const FrontendOptions& options);
+  // With sources made by the caller (e.g. the learned ones, which need a loaded model). A null
+  // source is created by name from options.features / options.depth as in the constructor
+  // above; a given source is used whatever the name says (the names are then only labels, but
+  // must still pass FrontendOptions::Check).
+  Frontend(const FrontendOptions& options, std::unique_ptr<FeatureSource> features,
+           std::unique_ptr<DepthSource> depth);
   ~Frontend();
   Frontend(const Frontend&) = delete;
   Frontend& operator=(const Frontend&) = delete;
@@ -67,7 +77,8 @@ class Frontend {
   // good pose and the next frame becomes a fresh reference, status kReference), never a throw.
   // Bad input throws InputError naming the frame index: an empty image, an image whose size
   // differs from the camera's, a depth map of another size, a missing depth map when the depth
-  // source is "gt", a camera that differs from the reference's.
+  // source is "gt", a camera that differs from the reference's; the sources' own InputErrors
+  // (e.g. a frame size the learned model does not accept) pass through.
   TrackedFrame Process(const Frame& frame);
 
   // Makes the frame of the last Process call the reference that the following frames are tracked

@@ -77,8 +77,10 @@ void ReferenceOptions::Check() const {
 }
 
 void FrontendOptions::Check() const {
-  CheckOption(features == "handmade", "frontend.features", features, "one of {handmade}");
-  CheckOption(depth == "gt", "frontend.depth", depth, "one of {gt}");
+  CheckOption(features == "handmade" || features == "learned", "frontend.features", features,
+              "one of {handmade, learned}");
+  CheckOption(depth == "gt" || depth == "learned", "frontend.depth", depth,
+              "one of {gt, learned}");
   CheckOption(num_threads >= 1, "frontend.num_threads", num_threads, ">= 1");
   // Nested options name their own section; prefix it with "frontend.".
   try {
