@@ -14,6 +14,7 @@
 #include <iostream>
 #include <limits>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include "apps/common/backend_config.h"
@@ -22,6 +23,7 @@
 #include "apps/common/progress.h"
 #include "apps/common/run_stats.h"
 #include "apps/common/sequence_runner.h"
+#include "apps/learned_wiring.h"
 #include "dfo_core/error.h"
 #include "dfo_frontend/frontend.h"
 #include "dfo_io/config.h"
@@ -63,9 +65,14 @@ options:
   --help              this text
 Flags also take their value after '=' (--output=DIR).
 
-Depth: the only depth source now is the dataset's ground truth (frontend.depth = gt: TUM depth/,
-the depth_0/ folder dfo_synth writes). A dataset without depth maps (KITTI odometry) stops with
-an error until the depth network arrives.
+Sources (section frontend): features = handmade | learned, depth = gt | learned, in any mix.
+  gt       the dataset's depth maps (TUM depth/, the depth_0/ folder dfo_synth writes); a dataset
+           without them (KITTI odometry) needs frontend.depth = learned
+  learned  the networks of the model file learned.model (default models/default.dfo, written by
+           dfo_train), loaded once and shared by both learned sources; with
+           learned.require_input_size (default) the frames must have the model's input size
+           (dataset.image_width / image_height)
+  e.g. --set frontend.depth=learned --set learned.model=out/train_default/model.dfo
 )";
 
 // A command-line mistake: exit status 2.
@@ -227,8 +234,24 @@ int Run(const Args& args) {
   const io::Sequence sequence = io::OpenSequence(dataset);
   if (frontend_options.depth == "gt" && !sequence.has_depth()) {
     throw InputError("no depth source: dataset " + sequence.name() + " (" + dataset.path +
-                     ") has no depth maps and there is no depth network yet; frontend.depth = "
-                     "gt needs ground-truth depth (TUM depth/, KITTI-layout depth_0/)");
+                     ") has no depth maps; frontend.depth = gt needs ground-truth depth (TUM "
+                     "depth/, KITTI-layout depth_0/), or use the depth network: --set "
+                     "frontend.depth=learned");
+  }
+  // The learned sources: one model for both, loaded before anything is written.
+  apps::FrontendSources sources =
+      apps::MakeFrontendSources(frontend_options, apps::LearnedModelOptionsFromConfig(config));
+  if (sources.model && sources.model->options().require_input_size) {
+    const LearnedModelInfo& info = sources.model->info();
+    if (sequence.output_width() != info.input_width ||
+        sequence.output_height() != info.input_height) {
+      throw ConfigError("dataset image size " + std::to_string(sequence.output_width()) + "x" +
+                        std::to_string(sequence.output_height()) + " differs from the input size " +
+                        std::to_string(info.input_width) + "x" + std::to_string(info.input_height) +
+                        " of the learned model " + info.path +
+                        "; set dataset.image_width/image_height to it, or "
+                        "learned.require_input_size = false");
+    }
   }
 
   const std::string output_dir = config.GetString("run.output_dir");
@@ -249,6 +272,7 @@ int Run(const Args& args) {
             << (frontend_options.reference.policy == "external" ? "the keyframe manager"
                                                                 : "the frontend")
             << " -> " << output_dir << "\n";
+  if (sources.model) std::cout << "  " << apps::DescribeLearnedModel(*sources.model) << "\n";
   for (const auto& key : config.schema().keys()) {
     if (!config.IsDefault(key.path)) {
       std::cout << "  " << key.path << " = " << io::FormatConfigValue(config.Get(key.path)) << "  ("
@@ -258,7 +282,7 @@ int Run(const Args& args) {
   std::cout.flush();
 
   apps::SequenceFrameProvider provider(sequence);
-  Frontend frontend(frontend_options);
+  Frontend frontend(frontend_options, std::move(sources.features), std::move(sources.depth));
   apps::SequenceRunOptions run_options;
   run_options.progress = apps::ParseProgressMode(config.GetString("run.progress"));
   run_options.progress_interval_s = config.GetDouble("run.progress_interval_s");

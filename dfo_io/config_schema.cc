@@ -61,13 +61,13 @@ ConfigSchema BuildSchema() {
   // that do not fit a range (odd patch size, ok thresholds stricter than lost ones).
   s.AddSection("frontend", "Frontend: where features and depth come from.");
   s.AddString("frontend.features", "handmade",
-              "Feature source: hand-made z-scored intensity and gradients (learned features "
-              "arrive with the networks)")
-      .OneOf({"handmade"});
+              "Feature source: hand-made z-scored intensity and gradients, or the feature network "
+              "of the model file learned.model")
+      .OneOf({"handmade", "learned"});
   s.AddString("frontend.depth", "gt",
               "Depth source: the dataset's ground-truth depth maps (TUM depth/, KITTI-layout "
-              "depth_0/); there is no depth network yet, so a dataset without depth cannot run")
-      .OneOf({"gt"});
+              "depth_0/), or the depth network of learned.model (datasets without depth maps)")
+      .OneOf({"gt", "learned"});
   s.AddString("frontend.handmade_descriptor", "intensity_gradients",
               "Hand-made channels: intensity alone (1), intensity and its x/y gradients (3), or "
               "rich = those plus a 3x3-blurred intensity and the gradient magnitude (5)")
@@ -78,6 +78,36 @@ ConfigSchema BuildSchema() {
               "0 = none")
       .Min(0)
       .Max(3);
+
+  // Defaults mirror LearnedModelOptions (dfo_frontend/learned/learned_sources.h) except the model
+  // path (required there) and the threads (run.threads there); a test in tests/apps compares them
+  // (apps/learned_wiring.h). Read only when frontend.features or frontend.depth is "learned".
+  s.AddSection("learned",
+               "Model of the learned sources (frontend.features/depth = learned): one model, one "
+               "run per frame.");
+  s.AddString("learned.model", "models/default.dfo",
+              "Model file: dfo's model format (dfo_train) or TorchScript following the contract "
+              "in learned_sources.h; a relative path starts at the working directory");
+  s.AddInt("learned.threads", 0,
+           "LibTorch intra-op threads (process-wide); 0 = run.threads (0 there = all hardware "
+           "threads)")
+      .Min(0);
+  s.AddInt("learned.num_levels", 0,
+           "Pyramid levels the model must have; 0 = whatever the file has (at least "
+           "tracker.num_levels with learned features)")
+      .Min(0)
+      .Max(6);
+  s.AddIntList("learned.channels", {},
+               "Feature channels per level the model must have; [] = whatever the file has")
+      .Min(1);
+  s.AddDoubleList("learned.rho", {},
+                  "Mask density per model level replacing the file's (fraction of pixels "
+                  "selectable, in (0, 1]); [] = the file's")
+      .GreaterThan(0)
+      .Max(1);
+  s.AddBool("learned.require_input_size", true,
+            "Frames must have the model's input size (set dataset.image_width/height to it); "
+            "false = any size whose sides are divisible by 2^(levels - 1)");
 
   s.AddSection("tracker",
                "Direct feature-metric tracker: coarse-to-fine Gauss-Newton, inverse "

@@ -6,6 +6,8 @@
 //   dataset  which sequence to read and how to load it (DatasetOptions, dfo_io/dataset.h)
 //   synth    the procedural synthetic sequence (dfo_core/synthetic/options.h)
 //   frontend feature and depth sources, hand-made feature options (FrontendOptions)
+//   learned  the model file of the learned sources and its overrides (LearnedModelOptions,
+//            dfo_frontend/learned/learned_sources.h)
 //   tracker  the direct feature-metric tracker (TrackerOptions, dfo_frontend/tracker.h)
 //   reference the frontend's own reference-switch rule (ReferenceOptions,
 //            dfo_frontend/reference_options.h), used when keyframe.decided_by = frontend

@@ -274,7 +274,7 @@ TEST(DfoRunBadInput, DatasetWithoutDepthNeedsADepthSource) {
   fs::remove_all(root + "/sequences/00/depth_0");
   const std::string out = test::MakeTempDir("dfo_run_no_depth_out");
   ExpectOneLineError(RunDfoRun(RunArgs(root, out)),
-                     {"no depth source", "has no depth maps and there is no depth network yet"});
+                     {"no depth source", "has no depth maps", "--set frontend.depth=learned"});
 }
 
 TEST(DfoRunBadInput, DepthFullOfZerosIsLostNotACrash) {
