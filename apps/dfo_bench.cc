@@ -2,6 +2,8 @@
 //
 //   dfo_bench [--frames N] [--threads T] [--levels L] [--seed S]      tracker benchmark
 //   dfo_bench --whole-run [--run-frames N] [--sequence DIR]            + whole dfo_run pipeline
+//   dfo_bench --features learned --depth learned --model FILE          learned sources
+//   dfo_bench --write-untrained-model FILE [--model-size WxH]          model file for tests
 //
 // 1. Tracker: renders N synthetic frames of 416 x 128 in memory first (not timed), then runs the
 //    Frontend (hand-made features, ground-truth depth, default points) over them and prints the
@@ -10,6 +12,10 @@
 // 2. Whole run (--whole-run): the same path as dfo_run (PNG loading and resizing, frontend,
 //    progress) on a synthetic sequence on disk with ground-truth depth, default 500 frames,
 //    rendered with dfo_synth's writer into a temporary folder unless --sequence names one.
+// 3. --features / --depth learned: the sources of the model file --model (loaded once, shared,
+//    as in dfo_run; any input size divisible by 2^(levels - 1), require_input_size off).
+// --write-untrained-model writes an untrained model (WriteUntrainedModel, seed --seed) and exits:
+// a model file with valid shapes for tests of the learned wiring, without training.
 #include <unistd.h>
 
 #include <cerrno>
@@ -19,13 +25,16 @@
 #include <exception>
 #include <filesystem>
 #include <iostream>
+#include <memory>
 #include <string>
 #include <thread>
+#include <utility>
 #include <vector>
 
 #include "apps/common/evaluation.h"
 #include "apps/common/run_stats.h"
 #include "apps/common/sequence_runner.h"
+#include "apps/learned_wiring.h"
 #include "dfo_core/error.h"
 #include "dfo_core/synthetic/synthetic_sequence.h"
 #include "dfo_frontend/frontend.h"
@@ -37,8 +46,9 @@ namespace {
 
 constexpr const char* kUsage = R"(usage: dfo_bench [options]
 
-Times dfo's frontend on the synthetic street sequence (416 x 128, hand-made features,
-ground-truth depth, default points). Prints figures; asserts nothing.
+Times dfo's frontend on the synthetic street sequence (416 x 128, default points; hand-made
+features and ground-truth depth unless --features / --depth say learned). Prints figures; asserts
+nothing.
 
 options:
   --frames N        frames for the tracker benchmark, rendered in memory first (default 200)
@@ -48,6 +58,14 @@ options:
   --whole-run       also time the whole dfo_run path (loading PNGs from disk) on a sequence
   --run-frames N    frames of that sequence (default 500)
   --sequence DIR    use this KITTI-layout root (with depth_0) instead of rendering one
+  --features NAME   feature source: handmade (default) or learned
+  --depth NAME      depth source: gt (default) or learned
+  --model FILE      model file of the learned sources (default models/default.dfo); frames of
+                    any size the model's levels divide are accepted
+  --write-untrained-model FILE
+                    write an untrained model (valid shapes, weights from --seed) and exit; for
+                    tests of the learned sources without a trained model
+  --model-size WxH  input size recorded in that model (default 416x128)
   --help            this text
 )";
 
@@ -63,6 +81,12 @@ struct Args {
   bool whole_run = false;
   int run_frames = 500;
   std::string sequence;
+  std::string features = "handmade";
+  std::string depth = "gt";
+  std::string model = "models/default.dfo";
+  std::string write_model;
+  int model_width = 416;
+  int model_height = 128;
   bool help = false;
 };
 
@@ -101,6 +125,23 @@ Args ParseArgs(int argc, char** argv) {
       a.run_frames = ParseInt(flag, value(), 2, 100000);
     } else if (flag == "--sequence") {
       a.sequence = value();
+    } else if (flag == "--features") {
+      a.features = value();
+    } else if (flag == "--depth") {
+      a.depth = value();
+    } else if (flag == "--model") {
+      a.model = value();
+    } else if (flag == "--write-untrained-model") {
+      a.write_model = value();
+      if (a.write_model.empty()) throw UsageError(flag + " needs a file name");
+    } else if (flag == "--model-size") {
+      const std::string size = value();
+      const size_t x = size.find('x');
+      if (x == std::string::npos) {
+        throw UsageError(flag + " expects WxH (e.g. 416x128), got '" + size + "'");
+      }
+      a.model_width = ParseInt(flag + " width", size.substr(0, x), 8, 8192);
+      a.model_height = ParseInt(flag + " height", size.substr(x + 1), 8, 8192);
     } else {
       throw UsageError("unknown argument '" + flag + "'");
     }
@@ -109,11 +150,36 @@ Args ParseArgs(int argc, char** argv) {
 }
 
 FrontendOptions BenchFrontendOptions(const Args& args) {
-  FrontendOptions o;  // hand-made features, ground-truth depth, default points
+  FrontendOptions o;  // default points; hand-made features and ground-truth depth by default
+  o.features = args.features;
+  o.depth = args.depth;
   o.tracker.num_levels = args.levels;
   o.num_threads = args.threads;
   o.Check();
   return o;
+}
+
+// The frontend with its sources: a learned source loads --model (once per call).
+std::unique_ptr<Frontend> MakeBenchFrontend(const Args& args) {
+  const FrontendOptions options = BenchFrontendOptions(args);
+  LearnedModelOptions model;
+  model.model_path = args.model;
+  model.num_threads = args.threads;
+  model.require_input_size = false;  // the benchmark renders 416 x 128 whatever the model's size
+  apps::FrontendSources sources = apps::MakeFrontendSources(options, model);
+  if (sources.model) {
+    std::printf("learned sources: %s\n", apps::DescribeLearnedModel(*sources.model).c_str());
+  }
+  return std::make_unique<Frontend>(options, std::move(sources.features), std::move(sources.depth));
+}
+
+void WriteModel(const Args& args) {
+  learned::NetworkOptions options;
+  options.input_width = args.model_width;
+  options.input_height = args.model_height;
+  WriteUntrainedModel(args.write_model, options, args.seed, "untrained (dfo_bench)");
+  std::printf("wrote an untrained %dx%d model to %s\n", args.model_width, args.model_height,
+              args.write_model.c_str());
 }
 
 void PrintStage(const char* name, const std::vector<double>& ms) {
@@ -144,7 +210,8 @@ void TrackerBenchmark(const Args& args) {
   }
 
   const FrontendOptions options = BenchFrontendOptions(args);
-  Frontend frontend(options);
+  const std::unique_ptr<Frontend> frontend_ptr = MakeBenchFrontend(args);
+  Frontend& frontend = *frontend_ptr;
   std::vector<double> features, depth, tracking, process;
   Trajectory estimate;
   int lost = 0;
@@ -210,14 +277,14 @@ void WholeRunBenchmark(const Args& args) {
   dataset.type = "kitti";
   dataset.path = root;
   dataset.sequence = "00";
-  dataset.depth = true;
+  dataset.depth = args.depth == "gt";
   const io::Sequence sequence = io::OpenSequence(dataset);
   apps::SequenceFrameProvider provider(sequence);
-  Frontend frontend(BenchFrontendOptions(args));
+  const std::unique_ptr<Frontend> frontend = MakeBenchFrontend(args);
   apps::SequenceRunOptions run;
   run.label = "dfo_bench whole run";
   run.progress_interval_s = 10.0;
-  const apps::SequenceRunResult result = apps::RunSequence(provider, &frontend, run);
+  const apps::SequenceRunResult result = apps::RunSequence(provider, frontend.get(), run);
   if (!result.error.empty()) throw InputError(result.error);
   std::vector<double> load, total;
   for (const apps::FrameRecord& f : result.frames) {
@@ -250,6 +317,10 @@ int main(int argc, char** argv) {
     const dfo::Args args = dfo::ParseArgs(argc, argv);
     if (args.help) {
       std::cout << dfo::kUsage;
+      return 0;
+    }
+    if (!args.write_model.empty()) {
+      dfo::WriteModel(args);
       return 0;
     }
     dfo::TrackerBenchmark(args);
