@@ -23,31 +23,9 @@ namespace {
 
 namespace fs = std::filesystem;
 
-struct CommandResult {
-  int status = -1;
-  std::string out;
-  std::string err;
-};
+using test::CommandResult;
 
-CommandResult RunSynth(const std::string& args) {
-  static int counter = 0;
-  const std::string err_path =
-      test::MakeTempDir("dfo_synth_stderr") + "/stderr_" + std::to_string(counter++) + ".txt";
-  const std::string command = std::string(DFO_SYNTH_EXE) + " " + args + " 2>" + err_path;
-  CommandResult result;
-  FILE* pipe = popen(command.c_str(), "r");
-  if (pipe == nullptr) return result;
-  char buf[4096];
-  size_t n = 0;
-  while ((n = fread(buf, 1, sizeof(buf), pipe)) > 0) result.out.append(buf, n);
-  const int wait_status = pclose(pipe);
-  result.status = WIFEXITED(wait_status) ? WEXITSTATUS(wait_status) : -1;
-  std::ifstream err(err_path);
-  std::stringstream ss;
-  ss << err.rdbuf();
-  result.err = ss.str();
-  return result;
-}
+CommandResult RunSynth(const std::string& args) { return test::RunCommand(DFO_SYNTH_EXE, args); }
 
 std::vector<std::string> ReadLines(const std::string& path) {
   std::ifstream in(path);

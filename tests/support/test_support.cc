@@ -1,11 +1,15 @@
 #include "tests/support/test_support.h"
 
+#include <sys/wait.h>
+#include <unistd.h>
+
 #include <atomic>
+#include <cstdio>
 #include <cstdlib>
 #include <filesystem>
+#include <fstream>
+#include <sstream>
 #include <string>
-
-#include <unistd.h>
 
 namespace dfo::test {
 
@@ -19,14 +23,34 @@ std::string SharedDataDir() {
 
 std::string MakeTempDir(const std::string& tag) {
   static std::atomic<int> counter{0};
-  const auto base = std::filesystem::temp_directory_path() /
-                    ("dfo_test_" + tag + "_" + std::to_string(::getpid()) + "_" +
-                     std::to_string(counter++));
+  const auto base =
+      std::filesystem::temp_directory_path() /
+      ("dfo_test_" + tag + "_" + std::to_string(::getpid()) + "_" + std::to_string(counter++));
   std::filesystem::remove_all(base);
   std::filesystem::create_directories(base);
   return base.string();
 }
 
 std::string SourceDir() { return DFO_SOURCE_DIR; }
+
+CommandResult RunCommand(const std::string& exe, const std::string& args) {
+  static std::atomic<int> counter{0};
+  const std::string err_path =
+      MakeTempDir("stderr") + "/stderr_" + std::to_string(counter++) + ".txt";
+  const std::string command = exe + " " + args + " 2>" + err_path + " </dev/null";
+  CommandResult result;
+  FILE* pipe = popen(command.c_str(), "r");
+  if (pipe == nullptr) return result;
+  char buf[4096];
+  size_t n = 0;
+  while ((n = fread(buf, 1, sizeof(buf), pipe)) > 0) result.out.append(buf, n);
+  const int wait_status = pclose(pipe);
+  result.status = WIFEXITED(wait_status) ? WEXITSTATUS(wait_status) : -1;
+  std::ifstream err(err_path);
+  std::stringstream ss;
+  ss << err.rdbuf();
+  result.err = ss.str();
+  return result;
+}
 
 }  // namespace dfo::test

@@ -16,13 +16,24 @@ std::string MakeTempDir(const std::string& tag);
 // The project's source folder (for configs/ and the like).
 std::string SourceDir();
 
+// What a finished command printed and how it exited.
+struct CommandResult {
+  int status = -1;  // exit status; -1 when it could not start or did not exit normally
+  std::string out;  // standard output
+  std::string err;  // standard error
+};
+
+// Runs `exe args` through the shell with standard input from /dev/null, capturing stdout and
+// stderr separately (stderr through a temporary file).
+CommandResult RunCommand(const std::string& exe, const std::string& args);
+
 }  // namespace dfo::test
 
-#define DFO_SKIP_WITHOUT_SHARED_DATA()                                                  \
-  do {                                                                                  \
-    if (::dfo::test::SharedDataDir().empty()) {                                         \
+#define DFO_SKIP_WITHOUT_SHARED_DATA()                                                     \
+  do {                                                                                     \
+    if (::dfo::test::SharedDataDir().empty()) {                                            \
       GTEST_SKIP() << "../shared/data not found (set -DDFO_SHARED_DATA_DIR=...); skipped"; \
-    }                                                                                   \
+    }                                                                                      \
   } while (0)
 
 #endif  // DFO_TESTS_SUPPORT_TEST_SUPPORT_H_
