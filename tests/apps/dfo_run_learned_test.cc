@@ -5,12 +5,9 @@
 // writes one pose per frame, datasets without depth maps run with learned depth) and the errors,
 // not accuracy.
 #include <gtest/gtest.h>
-#include <sys/wait.h>
 
-#include <cstdio>
 #include <filesystem>
 #include <fstream>
-#include <sstream>
 #include <stdexcept>
 #include <string>
 #include <vector>
@@ -27,31 +24,8 @@ constexpr int kFrames = 5;
 constexpr int kWidth = 128;
 constexpr int kHeight = 64;
 
-struct CommandResult {
-  int status = -1;  // exit status
-  std::string out;  // stdout
-  std::string err;  // stderr
-};
-
-CommandResult RunCommand(const std::string& exe, const std::string& args) {
-  static int counter = 0;
-  const std::string err_path =
-      test::MakeTempDir("dfo_run_learned_stderr") + "/stderr_" + std::to_string(counter++) + ".txt";
-  const std::string command = exe + " " + args + " 2>" + err_path + " </dev/null";
-  CommandResult result;
-  FILE* pipe = popen(command.c_str(), "r");
-  if (pipe == nullptr) return result;
-  char buf[4096];
-  size_t n = 0;
-  while ((n = fread(buf, 1, sizeof(buf), pipe)) > 0) result.out.append(buf, n);
-  const int wait_status = pclose(pipe);
-  result.status = WIFEXITED(wait_status) ? WEXITSTATUS(wait_status) : -1;
-  std::ifstream err(err_path);
-  std::stringstream ss;
-  ss << err.rdbuf();
-  result.err = ss.str();
-  return result;
-}
+using test::CommandResult;
+using test::RunCommand;
 
 // Pose lines of a trajectory file (comment lines skipped).
 size_t CountLines(const std::string& path) {
