@@ -290,21 +290,23 @@ void WindowOptimizer::RemovePointsWithoutResiduals() {
 
 bool WindowOptimizer::Solve(int max_iterations, double* initial_cost, double* final_cost,
                             std::string* why) {
-  // Snapshot to restore on failure.
-  std::vector<std::array<double, kPoseAmbientSize>> pose_backup;
-  for (const auto& kf : keyframes_) {
-    std::array<double, kPoseAmbientSize> a;
-    std::copy(kf->pose, kf->pose + kPoseAmbientSize, a.begin());
-    pose_backup.push_back(a);
+  // Ceres solves on copies laid out contiguously in window order (poses oldest first, then the
+  // inverse depths in point order), copied back only when the solve succeeded. Ceres's
+  // ParameterBlockOrdering keeps each elimination group as a set of addresses, so the order in
+  // which the Schur complement is accumulated follows the blocks' addresses; with the state in
+  // heap-allocated KeyframeState/PointState objects that order changed with the allocator's
+  // history and a second run in the same process gave different trajectories. Here address
+  // order is insertion order.
+  const size_t num_kf = keyframes_.size();
+  std::vector<double> pose_buffer(num_kf * kPoseAmbientSize);
+  std::map<int, double*> pose_of;  // keyframe id -> its block in pose_buffer
+  for (size_t i = 0; i < num_kf; ++i) {
+    double* block = pose_buffer.data() + i * kPoseAmbientSize;
+    std::copy(keyframes_[i]->pose, keyframes_[i]->pose + kPoseAmbientSize, block);
+    pose_of[keyframes_[i]->id] = block;
   }
-  std::vector<double> depth_backup;
-  for (const auto& p : points_) depth_backup.push_back(p->inverse_depth);
-  auto restore = [&]() {
-    for (size_t i = 0; i < keyframes_.size(); ++i) {
-      std::copy(pose_backup[i].begin(), pose_backup[i].end(), keyframes_[i]->pose);
-    }
-    for (size_t i = 0; i < points_.size(); ++i) points_[i]->inverse_depth = depth_backup[i];
-  };
+  std::vector<double> depth_buffer(points_.size());
+  for (size_t i = 0; i < points_.size(); ++i) depth_buffer[i] = points_[i]->inverse_depth;
 
   std::vector<std::unique_ptr<ceres::CostFunction>> owned_costs;
   std::unique_ptr<ceres::LossFunction> prior_loss;
@@ -314,25 +316,27 @@ bool WindowOptimizer::Solve(int max_iterations, double* initial_cost, double* fi
   problem_options.manifold_ownership = ceres::DO_NOT_TAKE_OWNERSHIP;
   ceres::Problem problem(problem_options);
   auto ordering = std::make_shared<ceres::ParameterBlockOrdering>();
-  for (const auto& kf : keyframes_) {
-    problem.AddParameterBlock(kf->pose, kPoseAmbientSize, manifold_.get());
-    ordering->AddElementToGroup(kf->pose, 1);
+  for (size_t i = 0; i < num_kf; ++i) {
+    double* block = pose_buffer.data() + i * kPoseAmbientSize;
+    problem.AddParameterBlock(block, kPoseAmbientSize, manifold_.get());
+    ordering->AddElementToGroup(block, 1);
   }
-  problem.SetParameterBlockConstant(keyframes_.front()->pose);  // gauge
+  problem.SetParameterBlockConstant(pose_buffer.data());  // gauge: the oldest keyframe
   int num_blocks = 0;
-  for (auto& p : points_) {
+  for (size_t i = 0; i < points_.size(); ++i) {
+    PointState* p = points_[i].get();
     if (p->residuals.empty()) continue;
-    KeyframeState* host = FindKeyframe(p->host_id);
+    double* depth = &depth_buffer[i];
     for (auto& [target_id, cost] : p->residuals) {
-      problem.AddResidualBlock(cost.get(), loss_.get(), host->pose, FindKeyframe(target_id)->pose,
-                               &p->inverse_depth);
+      problem.AddResidualBlock(cost.get(), loss_.get(), pose_of.at(p->host_id),
+                               pose_of.at(target_id), depth);
       ++num_blocks;
     }
-    ordering->AddElementToGroup(&p->inverse_depth, 0);
+    ordering->AddElementToGroup(depth, 0);
     if (options_.depth_prior_weight > 0.0) {
       owned_costs.push_back(std::make_unique<InverseDepthPriorCost>(p->prior_inverse_depth,
                                                                     options_.depth_prior_weight));
-      problem.AddResidualBlock(owned_costs.back().get(), nullptr, &p->inverse_depth);
+      problem.AddResidualBlock(owned_costs.back().get(), nullptr, depth);
     }
   }
   if (num_blocks == 0) {
@@ -346,15 +350,15 @@ bool WindowOptimizer::Solve(int max_iterations, double* initial_cost, double* fi
       owned_costs.push_back(
           std::make_unique<ceres::AutoDiffCostFunction<RelativePosePrior, 6, 7, 7>>(
               new RelativePosePrior(a_from_b, options_.pose_prior_weight)));
-      problem.AddResidualBlock(owned_costs.back().get(), nullptr, keyframes_[i - 1]->pose,
-                               keyframes_[i]->pose);
+      problem.AddResidualBlock(owned_costs.back().get(), nullptr,
+                               pose_of.at(keyframes_[i - 1]->id), pose_of.at(keyframes_[i]->id));
     }
   }
   if (prior_) {
     prior_loss = std::make_unique<ceres::ScaledLoss>(nullptr, options_.prior_weight,
                                                      ceres::DO_NOT_TAKE_OWNERSHIP);
     std::vector<double*> blocks;
-    for (int id : prior_keyframe_ids_) blocks.push_back(FindKeyframe(id)->pose);
+    for (int id : prior_keyframe_ids_) blocks.push_back(pose_of.at(id));
     problem.AddResidualBlock(prior_.get(), prior_loss.get(), blocks);
   }
 
@@ -376,12 +380,10 @@ bool WindowOptimizer::Solve(int max_iterations, double* initial_cost, double* fi
   // inverse depths), not by Ceres's bound constraints: with bounds, every LM step becomes a
   // projected line search with extra Jacobian evaluations (measured: 5 evaluations for 2
   // iterations instead of 2-3), which doubles the cost of a window solve.
-  for (auto& p : points_) p->inverse_depth = std::max(p->inverse_depth, options_.min_inverse_depth);
+  for (double& d : depth_buffer) d = std::max(d, options_.min_inverse_depth);
   bool state_finite = true;
-  for (const auto& kf : keyframes_) {
-    for (double v : kf->pose) state_finite = state_finite && std::isfinite(v);
-  }
-  for (const auto& p : points_) state_finite = state_finite && std::isfinite(p->inverse_depth);
+  for (double v : pose_buffer) state_finite = state_finite && std::isfinite(v);
+  for (double v : depth_buffer) state_finite = state_finite && std::isfinite(v);
   if (summary.termination_type == ceres::FAILURE || !summary.IsSolutionUsable() ||
       !std::isfinite(summary.final_cost) || !std::isfinite(summary.initial_cost) || !state_finite) {
     std::ostringstream msg;
@@ -389,9 +391,13 @@ bool WindowOptimizer::Solve(int max_iterations, double* initial_cost, double* fi
         << ", cost " << summary.initial_cost << " -> " << summary.final_cost
         << "): " << summary.message << "; the window keeps its previous state";
     *why = msg.str();
-    restore();
-    return false;
+    return false;  // the window's state was not touched
   }
+  for (size_t i = 0; i < num_kf; ++i) {
+    const double* block = pose_buffer.data() + i * kPoseAmbientSize;
+    std::copy(block, block + kPoseAmbientSize, keyframes_[i]->pose);
+  }
+  for (size_t i = 0; i < points_.size(); ++i) points_[i]->inverse_depth = depth_buffer[i];
   return true;
 }
 
@@ -471,6 +477,30 @@ WindowResult WindowOptimizer::AddKeyframe(KeyframeData data) {
   if (channels_ != 0 && f.channels != channels_) {
     input_error("features have " + std::to_string(f.channels) + " channels; the window's have " +
                 std::to_string(channels_));
+  }
+  // A non-finite feature value or pose would make every block touching the keyframe, and with
+  // them the whole window, NaN (Ceres then fails or the solve is thrown away at every later
+  // keyframe while the keyframe stays in). Such a keyframe is refused: the window stays as it
+  // was and the result says why.
+  size_t non_finite = 0;
+  for (float v : f.data) non_finite += std::isfinite(v) ? 0 : 1;
+  const Eigen::Matrix4d pose_matrix = data.world_from_cam.Matrix();
+  if (non_finite > 0 || !pose_matrix.allFinite()) {
+    WindowResult rejected;
+    std::ostringstream msg;
+    msg << "keyframe " << data.frame_index << " rejected: ";
+    if (non_finite > 0) {
+      msg << non_finite << " of " << f.data.size() << " feature values at pyramid level " << level
+          << " are not finite";
+    } else {
+      msg << "its pose is not finite";
+    }
+    msg << "; the window keeps its previous state";
+    rejected.message = msg.str();
+    rejected.keyframe_poses = KeyframePoses();
+    rejected.num_points = num_points();
+    rejected.num_residual_blocks = num_residual_blocks();
+    return rejected;
   }
   channels_ = f.channels;
   if (!loss_) {

@@ -155,7 +155,9 @@ class WindowOptimizer {
   // Inserts a keyframe, optimises, marginalises if the window is over max_keyframes (see the
   // file comment). Throws InputError (naming the frame index) when the keyframe lacks the BA
   // pyramid level, its depth and feature sizes differ, or its channel count differs from the
-  // window's; NaN/zero depth is not an error (those pixels host no points).
+  // window's; NaN/zero depth is not an error (those pixels host no points). A keyframe with a
+  // non-finite feature value at the BA level or a non-finite pose is not inserted: the result
+  // has optimized = false, the unchanged window's poses and a message naming the frame.
   WindowResult AddKeyframe(KeyframeData keyframe);
 
   int num_keyframes() const;

@@ -177,32 +177,39 @@ TEST(WindowOptimizerTest, MarginalizationOffOnlyDrops) {
   EXPECT_EQ(window.prior(), nullptr);
 }
 
-TEST(WindowOptimizerTest, FailingSolveKeepsThePreviousStateAndSaysWhy) {
+// A keyframe with NaN features (every block into it would be NaN and poison the window) is
+// refused on insertion: the window keeps its keyframes and poses, the message names the frame,
+// and the next good keyframe is optimised as usual.
+TEST(WindowOptimizerTest, KeyframeWithNonFiniteFeaturesIsRejectedAndSaysWhy) {
   WindowOptimizer window(TestOptions());
   window.AddKeyframe(test::MakeSyntheticKeyframe(Sequence(), 0, 2));
   window.AddKeyframe(test::MakeSyntheticKeyframe(Sequence(), 3, 2));
   const auto before = window.KeyframePoses();
-  // NaN features in the new keyframe: every residual into it is NaN, Ceres cannot evaluate.
+  const int points_before = window.num_points();
   KeyframeData bad = test::MakeSyntheticKeyframe(Sequence(), 6, 2);
-  for (FeatureLevel& level : bad.features.levels) {
-    std::fill(level.data.begin(), level.data.end(), std::numeric_limits<float>::quiet_NaN());
-  }
-  const SE3d bad_pose = bad.world_from_cam;
+  bad.features.levels[1].data[7] = std::numeric_limits<float>::quiet_NaN();
   const WindowResult result = window.AddKeyframe(std::move(bad));
   EXPECT_FALSE(result.optimized);
-  EXPECT_NE(result.message.find("failed"), std::string::npos) << result.message;
-  ASSERT_EQ(result.keyframe_poses.size(), 3u);
+  EXPECT_NE(result.message.find("keyframe 6 rejected"), std::string::npos) << result.message;
+  EXPECT_NE(result.message.find("not finite"), std::string::npos) << result.message;
+  EXPECT_EQ(window.num_keyframes(), 2);
+  EXPECT_EQ(window.num_points(), points_before);
+  ASSERT_EQ(result.keyframe_poses.size(), 2u);
   for (int i = 0; i < 2; ++i) {
     EXPECT_EQ(result.keyframe_poses[i].first, before[i].first);
-    EXPECT_LT((result.keyframe_poses[i].second.Matrix3x4Form() - before[i].second.Matrix3x4Form())
-                  .cwiseAbs()
-                  .maxCoeff(),
-              1e-15);
+    EXPECT_EQ(result.keyframe_poses[i].second.Matrix3x4Form(), before[i].second.Matrix3x4Form());
   }
-  EXPECT_LT((result.keyframe_poses[2].second.Matrix3x4Form() - bad_pose.Matrix3x4Form())
-                .cwiseAbs()
-                .maxCoeff(),
-            1e-12);
+  // A non-finite pose is refused the same way.
+  KeyframeData bad_pose = test::MakeSyntheticKeyframe(Sequence(), 6, 2);
+  bad_pose.world_from_cam.translation().x() = std::numeric_limits<double>::infinity();
+  const WindowResult pose_result = window.AddKeyframe(std::move(bad_pose));
+  EXPECT_FALSE(pose_result.optimized);
+  EXPECT_NE(pose_result.message.find("pose is not finite"), std::string::npos)
+      << pose_result.message;
+  EXPECT_EQ(window.num_keyframes(), 2);
+  const WindowResult good = window.AddKeyframe(test::MakeSyntheticKeyframe(Sequence(), 6, 2));
+  EXPECT_TRUE(good.optimized) << good.message;
+  EXPECT_EQ(window.num_keyframes(), 3);
   for (const auto& [host, rho] : window.PointInverseDepths()) EXPECT_TRUE(std::isfinite(rho));
 }
 
