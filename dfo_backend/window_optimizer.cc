@@ -133,7 +133,7 @@ struct WindowOptimizer::KeyframeState {
   int frame_index = 0;
   int64_t timestamp_ns = 0;
   double pose[kPoseAmbientSize];  // world_from_cam, pose_manifold.h layout
-  SE3d frontend_pose;             // as handed in (for the relative pose prior)
+  SE3d frontend_pose;             // chained frontend measurement (relative pose prior)
   FeatureLevel level;             // features at the BA level
   ImageF depth;                   // depth at the BA level (m, 0 invalid)
   int num_selected = 0;           // points selected when it entered
@@ -518,7 +518,19 @@ WindowResult WindowOptimizer::AddKeyframe(KeyframeData data) {
   kf->frame_index = data.frame_index;
   kf->timestamp_ns = data.timestamp_ns;
   PoseToParameters(data.world_from_cam, kf->pose);
-  kf->frontend_pose = data.world_from_cam;
+  // The relative pose prior's measurements: the new keyframe's pose relative to the newest
+  // window keyframe's CURRENT (bundle-adjusted) pose is what the frontend measured (dfo_run hands
+  // in the reference keyframe's adjusted pose composed with the tracked relative pose), so
+  // chaining those relative poses gives a frontend-like trajectory whose relative poses the prior
+  // uses. (Relating the keyframes' poses as handed in instead would fold every earlier BA
+  // correction of the previous keyframe into the "measurement".)
+  if (keyframes_.empty()) {
+    kf->frontend_pose = data.world_from_cam;
+  } else {
+    const KeyframeState& newest = *keyframes_.back();
+    kf->frontend_pose = newest.frontend_pose *
+                        (PoseFromParameters(newest.pose).Inverse() * data.world_from_cam);
+  }
   kf->level = std::move(f);
   kf->depth = d;
   KeyframeState* new_kf = kf.get();
