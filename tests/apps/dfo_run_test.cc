@@ -32,31 +32,8 @@ namespace fs = std::filesystem;
 
 constexpr int kFrames = 10;
 
-struct CommandResult {
-  int status = -1;  // exit status
-  std::string out;  // stdout
-  std::string err;  // stderr
-};
-
-CommandResult RunCommand(const std::string& exe, const std::string& args) {
-  static int counter = 0;
-  const std::string err_path =
-      test::MakeTempDir("dfo_run_stderr") + "/stderr_" + std::to_string(counter++) + ".txt";
-  const std::string command = exe + " " + args + " 2>" + err_path + " </dev/null";
-  CommandResult result;
-  FILE* pipe = popen(command.c_str(), "r");
-  if (pipe == nullptr) return result;
-  char buf[4096];
-  size_t n = 0;
-  while ((n = fread(buf, 1, sizeof(buf), pipe)) > 0) result.out.append(buf, n);
-  const int wait_status = pclose(pipe);
-  result.status = WIFEXITED(wait_status) ? WEXITSTATUS(wait_status) : -1;
-  std::ifstream err(err_path);
-  std::stringstream ss;
-  ss << err.rdbuf();
-  result.err = ss.str();
-  return result;
-}
+using test::CommandResult;
+using test::RunCommand;
 
 CommandResult RunDfoRun(const std::string& args) { return RunCommand(DFO_RUN_EXE, args); }
 
