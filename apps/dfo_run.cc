@@ -18,6 +18,7 @@
 #include <vector>
 
 #include "apps/common/backend_config.h"
+#include "apps/common/cli.h"
 #include "apps/common/evaluation.h"
 #include "apps/common/frontend_config.h"
 #include "apps/common/progress.h"
@@ -75,11 +76,7 @@ Sources (section frontend): features = handmade | learned, depth = gt | learned,
   e.g. --set frontend.depth=learned --set learned.model=out/train_default/model.dfo
 )";
 
-// A command-line mistake: exit status 2.
-class UsageError : public Error {
- public:
-  using Error::Error;
-};
+using dfo::apps::UsageError;
 
 struct Args {
   std::string config_path;
@@ -92,13 +89,7 @@ Args ParseArgs(int argc, char** argv) {
   Args args;
   for (int i = 1; i < argc; ++i) {
     std::string flag = argv[i], value;
-    bool has_value = false;
-    const size_t eq = flag.find('=');
-    if (flag.rfind("--", 0) == 0 && eq != std::string::npos) {
-      value = flag.substr(eq + 1);
-      flag = flag.substr(0, eq);
-      has_value = true;
-    }
+    const bool has_value = dfo::apps::SplitFlagValue(&flag, &value);
     if (flag == "--help" || flag == "-h") {
       args.help = true;
       continue;
@@ -339,18 +330,12 @@ int Run(const Args& args) {
 }  // namespace dfo
 
 int main(int argc, char** argv) {
-  try {
+  return dfo::apps::RunMain("dfo_run", [&] {
     const dfo::Args args = dfo::ParseArgs(argc, argv);
     if (args.help) {
       std::cout << dfo::kUsage;
       return 0;
     }
     return dfo::Run(args);
-  } catch (const dfo::UsageError& e) {
-    std::cerr << "dfo_run: error: " << e.what() << " (see dfo_run --help)\n";
-    return 2;
-  } catch (const std::exception& e) {
-    std::cerr << "dfo_run: error: " << e.what() << "\n";
-    return 1;
-  }
+  });
 }

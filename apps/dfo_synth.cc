@@ -10,6 +10,7 @@
 #include <string>
 #include <thread>
 
+#include "apps/common/cli.h"
 #include "dfo_core/error.h"
 #include "dfo_core/synthetic/synthetic_sequence.h"
 #include "dfo_io/synth_preview.h"
@@ -38,10 +39,7 @@ options:
 Flags take their value as the next argument or after '=' (--frames=100).
 )";
 
-// Thrown for bad command lines; main prints it as one line.
-struct UsageError : std::runtime_error {
-  using std::runtime_error::runtime_error;
-};
+using dfo::apps::UsageError;
 
 int64_t ParseInt(const std::string& flag, const std::string& text, int64_t lo, int64_t hi) {
   errno = 0;
@@ -87,13 +85,7 @@ Args ParseArgs(int argc, char** argv) {
   args.write.num_threads = hw > 0 ? static_cast<int>(hw) : 2;
   for (int i = 1; i < argc; ++i) {
     std::string flag = argv[i], value;
-    bool has_value = false;
-    const size_t eq = flag.find('=');
-    if (flag.rfind("--", 0) == 0 && eq != std::string::npos) {
-      value = flag.substr(eq + 1);
-      flag = flag.substr(0, eq);
-      has_value = true;
-    }
+    const bool has_value = dfo::apps::SplitFlagValue(&flag, &value);
     if (flag == "--help" || flag == "-h") {
       args.help = true;
       continue;
@@ -138,44 +130,43 @@ Args ParseArgs(int argc, char** argv) {
 }  // namespace
 
 int main(int argc, char** argv) {
-  try {
-    const Args args = ParseArgs(argc, argv);
-    if (args.help) {
-      std::cout << kUsage;
-      return 0;
-    }
-    args.synth.Check();
-    args.write.Check();
-    const dfo::SyntheticSequence sequence(args.synth);
-    const dfo::PinholeCamera& cam = sequence.camera();
-    std::printf(
-        "dfo_synth: seed %llu, %d frames of %dx%d, fx = fy = %.3f, cx = %.1f, cy = %.1f, "
-        "%zu boxes, %d threads\n",
-        static_cast<unsigned long long>(args.synth.seed), sequence.num_frames(), cam.width,
-        cam.height, cam.fx, cam.cx, cam.cy, sequence.world().boxes.size(), args.write.num_threads);
-    std::fflush(stdout);
-    const auto summary = dfo::io::WriteSyntheticSequence(
-        sequence, args.write, [](const dfo::io::SynthWriteProgress& p) {
-          std::printf("dfo_synth: %d/%d frames, %.1f frames/s, elapsed %.1f s, ETA %.1f s\n",
-                      p.frames_done, p.num_frames, p.frames_per_s, p.elapsed_s, p.eta_s);
-          std::fflush(stdout);
-        });
-    std::printf("dfo_synth: wrote %d frames to %s and %s in %.2f s (%.1f frames/s), path %.1f m\n",
-                summary.num_frames, summary.sequence_dir.c_str(), summary.poses_path.c_str(),
-                summary.seconds, summary.num_frames / std::max(summary.seconds, 1e-9),
-                sequence.GroundTruth().PathLength());
-    if (!args.preview.empty()) {
-      dfo::io::SynthPreviewOptions preview;
-      preview.num_threads = args.write.num_threads;
-      dfo::io::WriteSyntheticPreview(args.preview, sequence, preview);
-      std::printf("dfo_synth: preview written to %s\n", args.preview.c_str());
-    }
-    return 0;
-  } catch (const UsageError& e) {
-    std::cerr << "dfo_synth: error: " << e.what() << "\n";
-    return 2;
-  } catch (const std::exception& e) {
-    std::cerr << "dfo_synth: error: " << e.what() << "\n";
-    return 1;
-  }
+  return dfo::apps::RunMain(
+      "dfo_synth",
+      [&] {
+        const Args args = ParseArgs(argc, argv);
+        if (args.help) {
+          std::cout << kUsage;
+          return 0;
+        }
+        args.synth.Check();
+        args.write.Check();
+        const dfo::SyntheticSequence sequence(args.synth);
+        const dfo::PinholeCamera& cam = sequence.camera();
+        std::printf(
+            "dfo_synth: seed %llu, %d frames of %dx%d, fx = fy = %.3f, cx = %.1f, cy = %.1f, "
+            "%zu boxes, %d threads\n",
+            static_cast<unsigned long long>(args.synth.seed), sequence.num_frames(), cam.width,
+            cam.height, cam.fx, cam.cx, cam.cy, sequence.world().boxes.size(),
+            args.write.num_threads);
+        std::fflush(stdout);
+        const auto summary = dfo::io::WriteSyntheticSequence(
+            sequence, args.write, [](const dfo::io::SynthWriteProgress& p) {
+              std::printf("dfo_synth: %d/%d frames, %.1f frames/s, elapsed %.1f s, ETA %.1f s\n",
+                          p.frames_done, p.num_frames, p.frames_per_s, p.elapsed_s, p.eta_s);
+              std::fflush(stdout);
+            });
+        std::printf(
+            "dfo_synth: wrote %d frames to %s and %s in %.2f s (%.1f frames/s), path %.1f m\n",
+            summary.num_frames, summary.sequence_dir.c_str(), summary.poses_path.c_str(),
+            summary.seconds, summary.num_frames / std::max(summary.seconds, 1e-9),
+            sequence.GroundTruth().PathLength());
+        if (!args.preview.empty()) {
+          dfo::io::SynthPreviewOptions preview;
+          preview.num_threads = args.write.num_threads;
+          dfo::io::WriteSyntheticPreview(args.preview, sequence, preview);
+          std::printf("dfo_synth: preview written to %s\n", args.preview.c_str());
+        }
+        return 0;
+      },
+      /*hint_help=*/false);
 }

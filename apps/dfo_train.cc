@@ -13,6 +13,7 @@
 #include <string>
 #include <vector>
 
+#include "apps/common/cli.h"
 #include "dfo_core/error.h"
 #include "dfo_frontend/learned/internal/model_file.h"
 #include "dfo_frontend/learned/internal/training.h"
@@ -61,10 +62,7 @@ before starting (stops large buffers being returned to the OS each step; ~1.6x w
 and OMP_WAIT_POLICY=PASSIVE when other processes share the cores.
 )";
 
-class UsageError : public Error {
- public:
-  using Error::Error;
-};
+using dfo::apps::UsageError;
 
 struct Args {
   std::string config_path;
@@ -83,13 +81,7 @@ Args ParseArgs(int argc, char** argv) {
   Args args;
   for (int i = 1; i < argc; ++i) {
     std::string flag = argv[i], value;
-    bool has_value = false;
-    const size_t eq = flag.find('=');
-    if (flag.rfind("--", 0) == 0 && eq != std::string::npos) {
-      value = flag.substr(eq + 1);
-      flag = flag.substr(0, eq);
-      has_value = true;
-    }
+    const bool has_value = dfo::apps::SplitFlagValue(&flag, &value);
     if (flag == "--help" || flag == "-h") {
       args.help = true;
       continue;
@@ -435,18 +427,12 @@ int Run(const Args& args) {
 }  // namespace dfo
 
 int main(int argc, char** argv) {
-  try {
+  return dfo::apps::RunMain("dfo_train", [&] {
     const dfo::Args args = dfo::ParseArgs(argc, argv);
     if (args.help) {
       std::cout << dfo::kUsage;
       return 0;
     }
     return dfo::Run(args);
-  } catch (const dfo::UsageError& e) {
-    std::cerr << "dfo_train: error: " << e.what() << " (see dfo_train --help)\n";
-    return 2;
-  } catch (const std::exception& e) {
-    std::cerr << "dfo_train: error: " << e.what() << "\n";
-    return 1;
-  }
+  });
 }
