@@ -31,6 +31,7 @@
 #include <utility>
 #include <vector>
 
+#include "apps/common/cli.h"
 #include "apps/common/evaluation.h"
 #include "apps/common/run_stats.h"
 #include "apps/common/sequence_runner.h"
@@ -69,9 +70,7 @@ options:
   --help            this text
 )";
 
-struct UsageError : Error {
-  using Error::Error;
-};
+using apps::UsageError;
 
 struct Args {
   int frames = 200;
@@ -313,7 +312,7 @@ void WholeRunBenchmark(const Args& args) {
 }  // namespace dfo
 
 int main(int argc, char** argv) {
-  try {
+  return dfo::apps::RunMain("dfo_bench", [&] {
     const dfo::Args args = dfo::ParseArgs(argc, argv);
     if (args.help) {
       std::cout << dfo::kUsage;
@@ -326,11 +325,5 @@ int main(int argc, char** argv) {
     dfo::TrackerBenchmark(args);
     if (args.whole_run) dfo::WholeRunBenchmark(args);
     return 0;
-  } catch (const dfo::UsageError& e) {
-    std::cerr << "dfo_bench: error: " << e.what() << " (see dfo_bench --help)\n";
-    return 2;
-  } catch (const std::exception& e) {
-    std::cerr << "dfo_bench: error: " << e.what() << "\n";
-    return 1;
-  }
+  });
 }
