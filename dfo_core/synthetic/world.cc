@@ -179,7 +179,8 @@ DrivePath DrivePath::Generate(uint64_t seed, double min_length_m) {
   curvature = BoxFilter(BoxFilter(curvature, half), half);
 
   // Speed profile v(s) in metres per frame with |acceleration| <= a (m / frame^2): the classic
-  // forward/backward pass, v(s)^2 <= v(s - ds)^2 + 2 a ds. a = 0.025 m/frame^2 = 2.5 m/s^2 at 10 Hz.
+  // forward/backward pass, v(s)^2 <= v(s - ds)^2 + 2 a ds. a = 0.025 m/frame^2 = 2.5 m/s^2 at 10
+  // Hz.
   const double accel = 0.025;
   std::vector<double> speed = target;
   for (int i = 1; i < n; ++i) {
@@ -411,6 +412,19 @@ bool OverlapsAny(const SceneBox& box, const std::vector<SceneBox>& boxes, double
   return false;
 }
 
+// Gives a building box its facade: colour, pattern, floor and window sizes, texture seed. The
+// draws from `rng` are in a fixed order, so a seed gives the same world.
+void DressBuilding(SceneBox* box, SplitMix64* rng) {
+  box->kind = BoxKind::kBuilding;
+  box->colour = kFacadeColours[rng->UniformInt(0, 9)] * rng->Uniform(0.85, 1.12);
+  box->pattern = static_cast<FacadePattern>(rng->UniformInt(0, 2));
+  box->floor_height_m = rng->Uniform(2.9, 3.6);
+  box->window_pitch_m = rng->Uniform(1.8, 3.2);
+  box->window_width_frac = rng->Uniform(0.35, 0.62);
+  box->window_height_frac = rng->Uniform(0.4, 0.6);
+  box->texture_seed = static_cast<uint32_t>(rng->Next());
+}
+
 // A box of the given size whose near long side is at lateral offset l_near of the path at arc
 // length s_mid (side +1: right of the path, -1: left), aligned with the path there.
 SceneBox PlaceBox(const DrivePath& path, double s_mid, double l_near, int side, double depth,
@@ -465,14 +479,7 @@ SyntheticWorld SyntheticWorld::Build(const SyntheticOptions& options) {
       const double l_near = side > 0 ? q_near - kLaneOffsetM : -q_near - kLaneOffsetM;
       SceneBox box =
           PlaceBox(world.path, cursor + 0.5 * length, l_near, side, depth, length, height);
-      box.kind = BoxKind::kBuilding;
-      box.colour = kFacadeColours[rng.UniformInt(0, 9)] * rng.Uniform(0.85, 1.12);
-      box.pattern = static_cast<FacadePattern>(rng.UniformInt(0, 2));
-      box.floor_height_m = rng.Uniform(2.9, 3.6);
-      box.window_pitch_m = rng.Uniform(1.8, 3.2);
-      box.window_width_frac = rng.Uniform(0.35, 0.62);
-      box.window_height_frac = rng.Uniform(0.4, 0.6);
-      box.texture_seed = static_cast<uint32_t>(rng.Next());
+      DressBuilding(&box, &rng);
       if (MinDistance(box, road_centre) >= kSidewalkOuterM - 0.4 &&
           !OverlapsAny(box, world.boxes, 0.05)) {
         world.boxes.push_back(box);
@@ -495,14 +502,7 @@ SyntheticWorld SyntheticWorld::Build(const SyntheticOptions& options) {
       const double l_near = side > 0 ? q_near - kLaneOffsetM : -q_near - kLaneOffsetM;
       SceneBox box =
           PlaceBox(world.path, cursor + 0.5 * length, l_near, side, depth, length, height);
-      box.kind = BoxKind::kBuilding;
-      box.colour = kFacadeColours[rng.UniformInt(0, 9)] * rng.Uniform(0.85, 1.12);
-      box.pattern = static_cast<FacadePattern>(rng.UniformInt(0, 2));
-      box.floor_height_m = rng.Uniform(2.9, 3.6);
-      box.window_pitch_m = rng.Uniform(1.8, 3.2);
-      box.window_width_frac = rng.Uniform(0.35, 0.62);
-      box.window_height_frac = rng.Uniform(0.4, 0.6);
-      box.texture_seed = static_cast<uint32_t>(rng.Next());
+      DressBuilding(&box, &rng);
       if (MinDistance(box, road_centre) >= kSidewalkOuterM + 2.0 &&
           !OverlapsAny(box, world.boxes, 1.0)) {
         world.boxes.push_back(box);
