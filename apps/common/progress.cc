@@ -31,6 +31,13 @@ ProgressReporter::ProgressReporter(std::FILE* stream, ProgressMode mode, size_t 
   if (stream_ == nullptr) mode_ = ProgressMode::kNone;
 }
 
+std::string FormatDuration(double seconds) {
+  if (seconds < 120.0) return std::to_string(static_cast<int>(std::ceil(seconds))) + " s";
+  const int minutes = static_cast<int>(seconds / 60.0);
+  return std::to_string(minutes) + " min " +
+         std::to_string(static_cast<int>(seconds - 60.0 * minutes)) + " s";
+}
+
 std::string ProgressReporter::FormatLine(const std::string& label, size_t done, size_t total,
                                          double elapsed_s, const std::string& extra) {
   char buf[256];
@@ -38,16 +45,7 @@ std::string ProgressReporter::FormatLine(const std::string& label, size_t done, 
   const double pct =
       total > 0 ? 100.0 * static_cast<double>(done) / static_cast<double>(total) : 100.0;
   std::string eta = "?";
-  if (fps > 0.0 && total >= done) {
-    const double left_s = static_cast<double>(total - done) / fps;
-    if (left_s < 120.0) {
-      eta = std::to_string(static_cast<int>(std::ceil(left_s))) + " s";
-    } else {
-      const int minutes = static_cast<int>(left_s / 60.0);
-      eta = std::to_string(minutes) + " min " +
-            std::to_string(static_cast<int>(left_s - 60.0 * minutes)) + " s";
-    }
-  }
+  if (fps > 0.0 && total >= done) eta = FormatDuration(static_cast<double>(total - done) / fps);
   std::snprintf(buf, sizeof(buf), "%s: frame %zu/%zu (%.0f%%)  %.1f fps  ETA %s", label.c_str(),
                 done, total, pct, fps, eta.c_str());
   std::string line = buf;

@@ -24,6 +24,9 @@ enum class ProgressMode {
 // "auto" | "terminal" | "plain" | "none" -> mode; InputError naming the value otherwise.
 ProgressMode ParseProgressMode(const std::string& name);
 
+// A time left or taken as "42 s" (under two minutes, rounded up) or "3 min 5 s".
+std::string FormatDuration(double seconds);
+
 // Prints progress of `total` steps (frames) to `stream` (not owned; usually stdout).
 class ProgressReporter {
  public:
