@@ -10,6 +10,7 @@
 #include <sstream>
 
 #include "dfo_core/error.h"
+#include "dfo_io/config.h"
 #include "dfo_io/curve_plot.h"
 #include "dfo_io/json.h"
 
@@ -69,7 +70,8 @@ std::string Fixed(double v, int decimals) {
   return buf;
 }
 
-std::string CsvNumber(double v) { return std::isfinite(v) ? FormatDouble(v) : ""; }
+// Plain decimals that read back exactly ("50.0", "0.013174010690989627"); "" when absent.
+std::string CsvNumber(double v) { return std::isfinite(v) ? FormatConfigValue(v) : ""; }
 
 std::string CsvField(const std::string& s) {
   if (s.find_first_of(",\"\n\r") == std::string::npos) return s;

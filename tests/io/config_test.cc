@@ -9,6 +9,7 @@
 #include "dfo_core/error.h"
 #include "dfo_io/config_schema.h"
 #include "dfo_io/dataset.h"
+#include "dfo_io/sweep_spec.h"
 #include "dfo_io/train_schema.h"
 #include "tests/support/test_support.h"
 
@@ -293,6 +294,11 @@ TEST(DfoConfig, EveryShippedYamlParses) {
     // train_*.yaml configure dfo_train (its own schema); every other file configures dfo_run.
     if (entry.path().filename().string().rfind("train_", 0) == 0) {
       EXPECT_NO_THROW(LoadConfig(entry.path().string(), TrainSchema()));
+      continue;
+    }
+    // sweep_*.yaml are dfo_sweep files; their overrides are checked against dfo_run's schema.
+    if (entry.path().filename().string().rfind("sweep_", 0) == 0) {
+      EXPECT_NO_THROW(ExpandSweep(LoadSweepSpec(entry.path().string())));
       continue;
     }
     const Config c = LoadConfig(entry.path().string(), DfoSchema());

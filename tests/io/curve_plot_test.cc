@@ -58,5 +58,27 @@ TEST(CurvePlotTest, BadInputIsNamed) {
   EXPECT_THROW(WriteCurvePlot(dir + "/a.png", {{"x", {1}, {1}}}, options), ConfigError);
 }
 
+TEST(CurvePlotTest, ScatterPlotWithFrontAndNotes) {
+  const std::string dir = test::MakeTempDir("scatter_plot");
+  ScatterSeries a{"synthetic", {10, 20, 30}, {0.3, 0.1, 0.2}, {"#1", "#2", "#3"}, {0, 1}};
+  ScatterSeries b{"kitti", {15, 25}, {1.5, 1.7}, {}, {0}};
+  ScatterPlotOptions options;
+  options.width = 640;
+  options.height = 400;
+  options.log_y = true;  // less than a decade in view per series: ticks still drawn
+  options.notes = {"#1 a", "#2 b", "#3 c"};
+  WriteScatterPlot(dir + "/s.png", {a, b}, options);
+  const ImageU8 image = ReadRgb(dir + "/s.png");
+  EXPECT_EQ(image.width(), 640);
+  EXPECT_EQ(image.height(), 400);
+  // Bad input is named.
+  EXPECT_THROW(WriteScatterPlot(dir + "/b.png", {{"x", {1, 2}, {1}, {}, {}}}), InputError);
+  EXPECT_THROW(WriteScatterPlot(dir + "/b.png", {{"x", {1}, {1}, {"a", "b"}, {}}}), InputError);
+  EXPECT_THROW(WriteScatterPlot(dir + "/b.png", {{"x", {1}, {1}, {}, {3}}}), InputError);
+  EXPECT_THROW(WriteScatterPlot(dir + "/b.png", {{"x", {NAN}, {1}, {}, {}}}), InputError);
+  options.notes.assign(30, "note");  // no room left for the plot
+  EXPECT_THROW(WriteScatterPlot(dir + "/b.png", {a}, options), ConfigError);
+}
+
 }  // namespace
 }  // namespace dfo::io
