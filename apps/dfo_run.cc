@@ -13,6 +13,7 @@
 #include <filesystem>
 #include <iostream>
 #include <limits>
+#include <memory>
 #include <string>
 #include <utility>
 #include <vector>
@@ -21,6 +22,7 @@
 #include "apps/common/cli.h"
 #include "apps/common/evaluation.h"
 #include "apps/common/frontend_config.h"
+#include "apps/common/lcm_streaming.h"
 #include "apps/common/progress.h"
 #include "apps/common/run_stats.h"
 #include "apps/common/sequence_runner.h"
@@ -74,6 +76,12 @@ Sources (section frontend): features = handmade | learned, depth = gt | learned,
            learned.require_input_size (default) the frames must have the model's input size
            (dataset.image_width / image_height)
   e.g. --set frontend.depth=learned --set learned.model=out/train_default/model.dfo
+
+Streaming (section lcm): --set lcm.enable=true publishes every frame's pose, the window's
+keyframe poses after each bundle adjustment, the run status and a stop message on lcm.url
+(default udpm://239.255.76.67:7667?ttl=0, this host only); --set lcm.log_path=FILE writes the
+same messages into an LCM event log. Watch with dfo_lcm_listen (--help), replay a log with
+lcm-logplayer. A URL that cannot be opened stops dfo_run at start-up, saying why.
 )";
 
 using dfo::apps::UsageError;
@@ -196,6 +204,27 @@ void PrintComparison(const apps::SequenceRunResult& result, const apps::RunOutpu
   std::fflush(stdout);
 }
 
+// What was published over LCM and what it cost per frame.
+void PrintLcmLine(const apps::LcmRunStreamer& streamer, const std::vector<double>& total_ms) {
+  const io::LcmPublisherStats& stats = streamer.stats();
+  const double median_ms = apps::Percentile(streamer.publish_ms(), 50);
+  const double frame_ms = apps::Percentile(total_ms, 50);
+  std::cout << "lcm:         " << stats.messages << " messages (" << stats.bytes / 1024
+            << " KiB) to " << streamer.Describe() << "; publishing per frame median "
+            << apps::FormatFixed(1000.0 * median_ms, 1) << " us, p95 "
+            << apps::FormatFixed(1000.0 * apps::Percentile(streamer.publish_ms(), 95), 1) << " us ("
+            << apps::FormatFixed(100.0 * median_ms / frame_ms, 2)
+            << " % of the median frame time)\n";
+  if (stats.failures > 0) {
+    std::cerr << "dfo_run: warning: " << stats.failures
+              << " LCM publications failed; first: " << stats.first_error << "\n";
+  }
+  if (!streamer.options().log_path.empty()) {
+    std::cout << "             read the log with: dfo_lcm_listen --log "
+              << streamer.options().log_path << " --tum poses_tum.txt\n";
+  }
+}
+
 int Run(const Args& args) {
   const io::Config config = io::LoadConfig(args.config_path, io::DfoSchema(), args.overrides);
   if (args.print_config) {
@@ -254,6 +283,10 @@ int Run(const Args& args) {
   // Written first, so that even a run that fails half-way can be repeated.
   const std::string config_path = output_dir + "/config_effective.yaml";
   config.WriteYaml(config_path);
+  // LCM: opened before the run, so that a URL that cannot be opened stops it at once.
+  const apps::LcmStreamOptions lcm_options = apps::LcmStreamOptionsFromConfig(config);
+  std::unique_ptr<apps::LcmRunStreamer> streamer;
+  if (lcm_options.active()) streamer = std::make_unique<apps::LcmRunStreamer>(lcm_options, mode);
 
   std::cout << "dfo_run: " << sequence.name() << ", " << sequence.size() << " frames of "
             << sequence.output_width() << "x" << sequence.output_height() << ", features "
@@ -264,6 +297,7 @@ int Run(const Args& args) {
                                                                 : "the frontend")
             << " -> " << output_dir << "\n";
   if (sources.model) std::cout << "  " << apps::DescribeLearnedModel(*sources.model) << "\n";
+  if (streamer) std::cout << "  lcm: publishing on " << streamer->Describe() << "\n";
   for (const auto& key : config.schema().keys()) {
     if (!config.IsDefault(key.path)) {
       std::cout << "  " << key.path << " = " << io::FormatConfigValue(config.Get(key.path)) << "  ("
@@ -282,7 +316,14 @@ int Run(const Args& args) {
   run_options.keyframe = keyframe_options;
   run_options.window = window_options;
   run_options.log_stream = stderr;
+  if (streamer) {
+    run_options.frame_observer = [&](const apps::FrameRecord& frame,
+                                     const apps::SequenceRunResult& so_far) {
+      streamer->OnFrame(frame, so_far);
+    };
+  }
   const apps::SequenceRunResult result = apps::RunSequence(provider, &frontend, run_options);
+  if (streamer) streamer->Finish(result);
   const apps::RunOutputs outputs =
       apps::WriteRunOutputs(result, output_dir, config.GetBool("run.plot"));
 
@@ -310,6 +351,7 @@ int Run(const Args& args) {
               << apps::FormatFixed(apps::Percentile(backend_ms, 95), 1) << " ms";
   }
   std::cout << "\n";
+  if (streamer) PrintLcmLine(*streamer, total_ms);
   std::cout << "written:     " << config_path;
   for (const std::string& f : outputs.files) std::cout << "\n             " << f;
   std::cout << "\n";

@@ -223,6 +223,9 @@ class SO3 {
   SO3() : q_(Quaternion::Identity()) {}
   // From a quaternion; normalised here.
   explicit SO3(const Quaternion& q) : q_(q.normalized()) {}
+  // From a quaternion that is already unit (e.g. a normalised one sent through a message), kept
+  // bit for bit: re-normalising can change the last bit. The caller checks the norm.
+  static SO3 FromUnitQuaternion(const Quaternion& q) { return SO3(q, /*normalized=*/true); }
   // From a rotation matrix. A matrix that is not orthonormal to ~1e3 eps (e.g. parsed from a file
   // with few digits) is first projected onto the nearest rotation in the Frobenius norm (SVD,
   // reflection removed: U diag(1, 1, det(U V^T)) V^T).

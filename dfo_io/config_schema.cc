@@ -298,6 +298,29 @@ ConfigSchema BuildSchema() {
   s.AddBool("run.plot", true,
             "Write the trajectory pictures (frontend, windowed, both compared; top views coloured "
             "by ATE) when ground truth exists");
+
+  // Defaults mirror apps::LcmStreamOptions and io::LcmChannels (dfo_io/lcm/messages.h); a test
+  // checks that they agree.
+  s.AddSection("lcm", "LCM streaming of poses, keyframe updates and run status; LCM event log.");
+  s.AddBool("lcm.enable", false,
+            "Publish live on lcm.url while running (nobody needs to listen; dfo_run stops at "
+            "start-up when the URL cannot be opened)");
+  s.AddString("lcm.url", "udpm://239.255.76.67:7667?ttl=0",
+              "LCM URL to publish on; the default is UDP multicast that stays on this host "
+              "(ttl=0)");
+  s.AddString("lcm.log_path", "",
+              "LCM event log of the same messages, written by dfo_run itself (also without "
+              "enable); read it with dfo_lcm_listen --log, replay it with lcm-logplayer; "
+              "\"\" = none");
+  s.AddString("lcm.pose_channel", "DFO_POSE",
+              "Channel of dfo.pose_t: every frame's frontend-only and/or windowed pose");
+  s.AddString("lcm.keyframes_channel", "DFO_KEYFRAMES",
+              "Channel of dfo.keyframe_batch_t: the window keyframes' poses after each bundle "
+              "adjustment");
+  s.AddString("lcm.status_channel", "DFO_STATUS",
+              "Channel of dfo.run_status_t: frames done, fps, keyframes, lost, after each frame");
+  s.AddString("lcm.stop_channel", "DFO_STOP",
+              "Channel of dfo.stop_t: published once when the run ends");
   return s;
 }
 

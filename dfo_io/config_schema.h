@@ -15,6 +15,7 @@
 //   window   the sliding-window bundle adjustment (WindowOptions, dfo_backend/window_optimizer.h)
 //   backend  its solver, loss, priors and marginalisation (WindowOptions too)
 //   run      mode (frontend, windowed, both), output folder, determinism, threads, progress, plot
+//   lcm      LCM streaming and event log of dfo_run (apps/common/lcm_streaming.h)
 #ifndef DFO_IO_CONFIG_SCHEMA_H_
 #define DFO_IO_CONFIG_SCHEMA_H_
 

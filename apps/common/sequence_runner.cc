@@ -99,19 +99,22 @@ class KeyframePipeline {
       // First frame or restart after a loss: a keyframe by itself, related to the previous
       // keyframe only through the frontend's poses.
       store.AddKeyframe(t.index, t.timestamp_ns, t.world_from_cam);
+      record->kf_from_cam = t.world_from_cam;
       BecomeKeyframe(record, decision.reason);
       return;
     }
     if (t.reference_index >= 0 && store.IsKeyframe(t.reference_index)) {
-      store.AddFrame(t.index, t.timestamp_ns, t.reference_index, t.ref_from_cam);
+      record->pose_keyframe_index = t.reference_index;
+      record->kf_from_cam = t.ref_from_cam;
     } else if (last_keyframe_ >= 0) {
       // Not tracked against a keyframe (a lost frame while restarting): keep the frontend's
       // relation to the newest keyframe.
-      store.AddFrame(t.index, t.timestamp_ns, last_keyframe_,
-                     store.FrontendPose(last_keyframe_).Inverse() * t.world_from_cam);
+      record->pose_keyframe_index = last_keyframe_;
+      record->kf_from_cam = store.FrontendPose(last_keyframe_).Inverse() * t.world_from_cam;
     } else {
-      store.AddFrame(t.index, t.timestamp_ns, -1, t.world_from_cam);
+      record->kf_from_cam = t.world_from_cam;
     }
+    store.AddFrame(t.index, t.timestamp_ns, record->pose_keyframe_index, record->kf_from_cam);
     if (t.status == TrackingStatus::kLost) return;
     bool switched = false;
     if (external_) {
@@ -219,6 +222,7 @@ SequenceRunResult RunSequence(const FrameProvider& provider, Frontend* frontend,
       pipeline.Handle(&record);
       record.total_ms = MillisecondsSince(frame_start);
       result.frames.push_back(std::move(record));
+      if (options.frame_observer) options.frame_observer(result.frames.back(), result);
     } catch (const std::exception& e) {
       result.error = e.what();
       break;

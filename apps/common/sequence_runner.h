@@ -85,6 +85,9 @@ class SequenceFrameProvider : public FrameProvider {
   const io::Sequence& sequence_;
 };
 
+struct FrameRecord;
+struct SequenceRunResult;
+
 // How RunSequence reports progress.
 struct SequenceRunOptions {
   ProgressMode progress = ProgressMode::kAuto;  // see ProgressReporter
@@ -98,6 +101,10 @@ struct SequenceRunOptions {
   std::FILE* log_stream = stderr;  // one line per failed bundle adjustment; nullptr = silent
   // For tests (fault injection): called on each keyframe's data just before the window gets it.
   std::function<void(KeyframeData*)> keyframe_filter;
+  // Called after each processed frame, once its keyframe handling (and bundle adjustment) is
+  // done, with its record (already result.frames.back()) and the result so far, e.g. to stream
+  // poses over LCM. An exception thrown here ends the run like a bad frame.
+  std::function<void(const FrameRecord&, const SequenceRunResult&)> frame_observer;
 };
 
 // What happened at one keyframe.
@@ -121,6 +128,11 @@ struct FrameRecord {
   KeyframeReason keyframe_reason = KeyframeReason::kNone;
   double backend_ms = 0.0;  // window AddKeyframe time (keyframes only, else 0)
   double total_ms = 0.0;    // load + Frontend::Process + keyframe handling + backend
+  // How the pose store holds the frame before it may become a keyframe: relative to keyframe
+  // pose_keyframe_index with kf_from_cam (-1: kf_from_cam is the absolute pose; a frame that
+  // became a keyframe by itself, e.g. a restart, keeps -1).
+  int pose_keyframe_index = -1;
+  SE3d kf_from_cam;
 };
 
 // Everything a run produced.

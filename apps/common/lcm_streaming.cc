@@ -1,0 +1,129 @@
+#include "apps/common/lcm_streaming.h"
+
+#include "dfo_core/error.h"
+
+namespace dfo::apps {
+
+LcmStreamOptions LcmStreamOptionsFromConfig(const io::Config& config) {
+  LcmStreamOptions o;
+  o.enable = config.GetBool("lcm.enable");
+  o.url = config.GetString("lcm.url");
+  o.log_path = config.GetString("lcm.log_path");
+  o.channels.pose = config.GetString("lcm.pose_channel");
+  o.channels.keyframes = config.GetString("lcm.keyframes_channel");
+  o.channels.status = config.GetString("lcm.status_channel");
+  o.channels.stop = config.GetString("lcm.stop_channel");
+  if (o.enable && o.url.empty()) {
+    throw ConfigError("lcm.url is empty but lcm.enable is true; name an LCM URL, e.g. " +
+                      std::string(io::kDefaultLcmUrl));
+  }
+  o.channels.Check("lcm");
+  return o;
+}
+
+namespace {
+
+io::LcmPublisherOptions PublisherOptions(const LcmStreamOptions& options) {
+  io::LcmPublisherOptions p;
+  if (options.enable) p.url = options.url;
+  p.log_path = options.log_path;
+  p.channels = options.channels;
+  return p;
+}
+
+}  // namespace
+
+LcmRunStreamer::LcmRunStreamer(const LcmStreamOptions& options, RunMode mode)
+    : options_(options), mode_(mode), publisher_(PublisherOptions(options)) {}
+
+std::string LcmRunStreamer::Describe() const {
+  std::string s;
+  if (publisher_.live()) s = options_.url;
+  if (publisher_.logging())
+    s += (s.empty() ? "" : " and ") + std::string("the log ") + options_.log_path;
+  return s;
+}
+
+void LcmRunStreamer::PublishStatus(const SequenceRunResult& result) {
+  dfo::run_status_t status{};
+  status.utime = io::NsToUtime(last_timestamp_ns_);
+  status.frames_done = static_cast<int32_t>(result.frames.size());
+  status.frames_total = static_cast<int32_t>(result.frames_in_sequence);
+  const double elapsed_s =
+      std::chrono::duration<double>(std::chrono::steady_clock::now() - start_).count();
+  status.fps = elapsed_s > 0.0 ? static_cast<double>(result.frames.size()) / elapsed_s : 0.0;
+  status.keyframes = static_cast<int32_t>(result.keyframes.size());
+  status.lost = lost_;
+  status.sequence = result.sequence_name;
+  publisher_.Publish(options_.channels.status, status);
+}
+
+void LcmRunStreamer::OnFrame(const FrameRecord& frame, const SequenceRunResult& result) {
+  const auto begin = std::chrono::steady_clock::now();
+  if (!started_) {
+    // The run started when the first frame started loading.
+    start_ = begin - std::chrono::duration_cast<std::chrono::steady_clock::duration>(
+                         std::chrono::duration<double, std::milli>(frame.total_ms));
+    started_ = true;
+  }
+  const TrackedFrame& t = frame.tracked;
+  timestamps_ns_[t.index] = t.timestamp_ns;
+  last_timestamp_ns_ = t.timestamp_ns;
+  lost_ += t.status == TrackingStatus::kLost ? 1 : 0;
+  const TrajectoryStore& store = result.poses;
+  // A keyframe is its own reference; other frames say what their pose is composed of, so that
+  // a subscriber can follow their keyframe when the window moves it.
+  const int keyframe_index = frame.keyframe ? t.index : frame.pose_keyframe_index;
+  const SE3d kf_from_cam = frame.keyframe ? SE3d() : frame.kf_from_cam;
+  const bool stored = store.Contains(t.index);
+  const auto publish_pose = [&](const SE3d& world_from_cam, int8_t source) {
+    publisher_.Publish(
+        options_.channels.pose,
+        io::MakePoseMessage(t.index, t.timestamp_ns, stored ? world_from_cam : t.world_from_cam,
+                            t.status, frame.keyframe, source, keyframe_index, kf_from_cam));
+  };
+  if (result.has_frontend()) {
+    publish_pose(stored ? store.FrontendPose(t.index) : SE3d(), dfo::pose_t::SOURCE_FRONTEND);
+  }
+  if (result.has_windowed()) {
+    publish_pose(stored ? store.WindowedPose(t.index) : SE3d(), dfo::pose_t::SOURCE_WINDOWED);
+    const KeyframeRecord* kf = result.keyframes.empty() ? nullptr : &result.keyframes.back();
+    if (frame.keyframe && kf != nullptr && kf->frame_index == t.index && kf->ba_ran) {
+      // The store's windowed poses of the window's keyframes: the solve's result when it was
+      // kept, the previous ones when not.
+      dfo::keyframe_batch_t batch{};
+      batch.utime = io::NsToUtime(t.timestamp_ns);
+      batch.frame_index = t.index;
+      batch.optimized = kf->window.optimized ? 1 : 0;
+      const auto add = [&](int index, bool in_window) {
+        if (!store.IsKeyframe(index)) return;
+        const auto stamp = timestamps_ns_.find(index);
+        batch.keyframes.push_back(
+            io::MakeKeyframePose(index, stamp != timestamps_ns_.end() ? stamp->second : 0,
+                                 store.WindowedPose(index), in_window));
+      };
+      for (const auto& [index, pose] : kf->window.keyframe_poses) add(index, true);
+      if (kf->window.marginalized_frame_index >= 0) {
+        add(kf->window.marginalized_frame_index, false);
+      }
+      batch.num_keyframes = static_cast<int32_t>(batch.keyframes.size());
+      publisher_.Publish(options_.channels.keyframes, batch);
+    }
+  }
+  PublishStatus(result);
+  publish_ms_.push_back(
+      std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - begin).count());
+}
+
+void LcmRunStreamer::Finish(const SequenceRunResult& result) {
+  if (!started_) start_ = std::chrono::steady_clock::now();
+  PublishStatus(result);
+  dfo::stop_t stop{};
+  stop.utime = io::NsToUtime(last_timestamp_ns_);
+  stop.frames_done = static_cast<int32_t>(result.frames.size());
+  stop.error = result.error.empty() ? 0 : 1;
+  stop.reason = result.error.empty() ? "finished" : result.error;
+  publisher_.Publish(options_.channels.stop, stop);
+}
+
+}  // namespace dfo::apps
