@@ -5,6 +5,7 @@
 
 #include <atomic>
 #include <chrono>
+#include <cmath>
 #include <csignal>
 #include <cstdio>
 #include <filesystem>
@@ -152,6 +153,9 @@ learned::TrainingOptions OptionsFromConfig(const io::Config& c) {
   o.gn.outlier_rule = c.GetBool("gn.outlier_rule");
   o.gn_use_masks = c.GetBool("gn.use_masks");
   o.source_feature_grad = c.GetBool("gn.source_feature_grad");
+  o.pose_source = c.GetString("gn.pose_source") == "ground_truth"
+                      ? learned::TrainingOptions::PoseSource::kGroundTruth
+                      : learned::TrainingOptions::PoseSource::kAlignment;
   o.batch_size = c.GetInt("train.batch_size");
   o.static_threshold = c.GetDouble("train.static_threshold");
   o.ae_iterations = c.GetInt("train.ae_iterations");
@@ -210,6 +214,13 @@ std::vector<learned::TrainingSequence> LoadData(const io::Config& config,
     const size_t n =
         max_frames < 0 ? seq.size() : std::min(seq.size(), static_cast<size_t>(max_frames));
     for (size_t i = 0; i < n; ++i) t.images.push_back(ToRgb(seq.LoadImage(i)));
+    // Ground-truth poses, when the sequence has one for every used frame: only for the pose-error
+    // diagnostic and the diagnostic gn.pose_source = ground_truth, never in the default loss.
+    bool all_poses = true;
+    for (size_t i = 0; i < n; ++i) all_poses = all_poses && seq.frame(i).world_from_cam.has_value();
+    if (all_poses) {
+      for (size_t i = 0; i < n; ++i) t.world_from_cam.push_back(*seq.frame(i).world_from_cam);
+    }
     std::cout << "dfo_train: " << folder << ": " << n << " frames at " << t.camera.width << "x"
               << t.camera.height << "\n";
     data.push_back(std::move(t));
@@ -384,14 +395,20 @@ int Run(const Args& args) {
     const double elapsed =
         std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
     const double rate = (r.iteration - start_iteration) / std::max(elapsed, 1e-9);
-    char buf[320];
+    char pose_error[96] = "";
+    if (std::isfinite(r.pose_rotation_error_deg)) {
+      // Diagnostic against the ground truth (not used by the loss).
+      std::snprintf(pose_error, sizeof(pose_error), " (vs truth: rot %.2f deg, dir %.0f deg)",
+                    r.pose_rotation_error_deg, r.pose_direction_error_deg);
+    }
+    char buf[400];
     std::snprintf(
         buf, sizeof(buf),
         "dfo_train: it %d/%d (%.1f%%) %s  loss %.4f (ap %.4f sm %.4f sp %.4f ae %.4f)  "
-        "gn ok %.0f%%  median depth %.1f m  %.2f it/s  ETA %s",
+        "gn ok %.0f%%%s  median depth %.1f m  %.2f it/s  ETA %s",
         r.iteration, options.iterations, 100.0 * r.iteration / options.iterations, r.stage.c_str(),
         r.total, r.appearance, r.smoothness, r.sparsity, r.reconstruction, 100.0 * r.gn_ok_ratio,
-        r.mean_depth, rate,
+        pose_error, r.mean_depth, rate,
         FormatDuration((options.iterations - r.iteration) / std::max(rate, 1e-9)).c_str());
     return std::string(buf);
   };

@@ -91,6 +91,10 @@ ConfigSchema BuildTrainSchema() {
             "tracker's gradient rule)");
   s.AddBool("gn.source_feature_grad", false,
             "Backpropagate through the source views' feature network (slower)");
+  s.AddString("gn.pose_source", "alignment",
+              "Poses of the warp: alignment (the method) or ground_truth (DIAGNOSTIC only: the "
+              "sequences' true poses, no GN; not self-supervised)")
+      .OneOf({"alignment", "ground_truth"});
 
   s.AddSection("train", "Schedule, optimiser, batches, determinism, checkpoints.");
   s.AddInt("train.batch_size", 4, "Snippets per iteration").Min(1);

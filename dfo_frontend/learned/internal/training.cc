@@ -63,7 +63,10 @@ torch::Tensor MeanAbsGrey(const torch::Tensor& a, const torch::Tensor& b) {
   return (a.to(torch::kFloat32).mean(0) - b.to(torch::kFloat32).mean(0)).abs().mean() / 255.0;
 }
 
-constexpr int kHistoryColumns = 12;
+// Columns of the history (checkpoint tensor and CSV); checkpoints and CSVs written before the
+// pose-error diagnostic have the first 12 (the two pose errors then read NaN).
+constexpr int kHistoryColumns = 14;
+constexpr int kOldHistoryColumns = 12;
 
 }  // namespace
 
@@ -100,6 +103,57 @@ void TrainingOptions::Check() const {
           "divisible by 2^(num_levels - 1)");
   Require(network.input_height % divisor == 0, "network.input_height", network.input_height,
           "divisible by 2^(num_levels - 1)");
+}
+
+torch::Tensor ViewSynthesisLoss(const Trainer::Batch& batch,
+                                const std::vector<torch::Tensor>& depth,
+                                const torch::Tensor rotations[2],
+                                const torch::Tensor translations[2], const LossOptions& options) {
+  const int levels = static_cast<int>(depth.size());
+  const std::vector<torch::Tensor> targets = ImagePyramid(batch.target, levels);
+  const std::vector<torch::Tensor> sources[2] = {ImagePyramid(batch.previous, levels),
+                                                 ImagePyramid(batch.next, levels)};
+  torch::Tensor appearance = torch::zeros({});
+  for (int l = 0; l < levels; ++l) {
+    const double scale = 1.0 / (1 << l);
+    // Level intrinsics: PyramidLevel's (c + 0.5) / 2^l - 0.5.
+    torch::Tensor k = batch.intrinsics.clone();
+    k.select(1, 0).mul_(scale);
+    k.select(1, 1).mul_(scale);
+    k.select(1, 2).add_(0.5).mul_(scale).sub_(0.5);
+    k.select(1, 3).add_(0.5).mul_(scale).sub_(0.5);
+    const torch::Tensor d = depth[l].contiguous();
+    DFO_CHECK(d.size(2) == targets[l].size(2) && d.size(3) == targets[l].size(3))
+        << "level " << l << " depth " << d.sizes() << " vs image " << targets[l].sizes();
+    std::vector<torch::Tensor> maps;
+    for (int s = 0; s < 2; ++s) {
+      torch::Tensor valid;
+      const torch::Tensor warped =
+          InverseWarp(sources[s][l].contiguous(), d, rotations[s], translations[s], k, &valid);
+      const torch::Tensor map = AppearanceMap(targets[l].contiguous(), warped, options);
+      // Invalid pixels (outside the source) lose the minimum to any valid one.
+      maps.push_back(map + (1.0 - valid) * 1e3);
+    }
+    const torch::Tensor best = std::get<0>(torch::min(torch::cat(maps, 1), 1, true));
+    const torch::Tensor valid_any = (best < 1e2).to(torch::kFloat32);
+    appearance = appearance + (best * valid_any).sum() / valid_any.sum().clamp_min(1.0);
+  }
+  return appearance / levels;
+}
+
+PoseError ComparePoses(const SE3d& estimate, const SE3d& truth) {
+  PoseError e;
+  const Eigen::Matrix3d dr = estimate.rotationMatrix().transpose() * truth.rotationMatrix();
+  const double c = std::clamp((dr.trace() - 1.0) / 2.0, -1.0, 1.0);
+  e.rotation_deg = std::acos(c) * 180.0 / M_PI;
+  const Eigen::Vector3d a = estimate.translation(), b = truth.translation();
+  if (a.norm() < 1e-9 || b.norm() < 1e-9) {
+    e.direction_deg = std::numeric_limits<double>::quiet_NaN();
+  } else {
+    const double cd = std::clamp(a.dot(b) / (a.norm() * b.norm()), -1.0, 1.0);
+    e.direction_deg = std::acos(cd) * 180.0 / M_PI;
+  }
+  return e;
 }
 
 torch::Tensor ImageToTensor(const ImageU8& image) {
@@ -139,6 +193,18 @@ Trainer::Trainer(const TrainingOptions& options, std::vector<TrainingSequence> d
             << seq.camera.height << " (the sequence's camera)";
         throw InputError(msg.str());
       }
+    }
+    if (!seq.world_from_cam.empty() && seq.world_from_cam.size() != seq.images.size()) {
+      std::ostringstream msg;
+      msg << "training data " << seq.name << ": " << seq.world_from_cam.size()
+          << " ground-truth poses for " << seq.images.size() << " images (need one each, or none)";
+      throw InputError(msg.str());
+    }
+    if (options_.pose_source == TrainingOptions::PoseSource::kGroundTruth &&
+        seq.world_from_cam.empty()) {
+      throw InputError("training data " + seq.name +
+                       ": no ground-truth poses, but gn.pose_source = ground_truth needs them "
+                       "(KITTI layout: poses/<sequence>.txt)");
     }
     if (seq.camera.width != w || seq.camera.height != h) {
       // Resize to the training size (bilinear, pixel-centre convention as Resized()).
@@ -208,11 +274,30 @@ Trainer::Batch Trainer::MakeBatch(int iteration) const {
   const int w = options_.network.input_width, h = options_.network.input_height;
   std::vector<torch::Tensor> frames[3];
   std::vector<float> intrinsics;
+  std::vector<float> gt_rotation[2], gt_translation[2];
   Batch batch;
+  batch.has_ground_truth = true;
   for (int b = 0; b < options_.batch_size; ++b) {
     const Snippet& snip =
         snippets_[static_cast<size_t>(unit(rng) * snippets_.size()) % snippets_.size()];
     const TrainingSequence& seq = data_[snip.sequence];
+    batch.snippets.push_back(snip);
+    if (seq.world_from_cam.empty()) {
+      batch.has_ground_truth = false;
+    } else {
+      // source_from_target = cam_from_world(source) * world_from_cam(target). Cropping and
+      // resizing change the intrinsics only.
+      const SE3d& world_from_target = seq.world_from_cam[snip.index];
+      for (int s = 0; s < 2; ++s) {
+        const SE3d source_from_target =
+            seq.world_from_cam[snip.index + (s == 0 ? -1 : 1)].Inverse() * world_from_target;
+        const Eigen::Matrix3d r = source_from_target.rotationMatrix();
+        for (int i = 0; i < 3; ++i) {
+          for (int j = 0; j < 3; ++j) gt_rotation[s].push_back(static_cast<float>(r(i, j)));
+          gt_translation[s].push_back(static_cast<float>(source_from_target.translation()(i)));
+        }
+      }
+    }
     PinholeCamera camera = seq.camera;
     torch::Tensor images = torch::cat({ImageToTensor(seq.images[snip.index - 1]),
                                        ImageToTensor(seq.images[snip.index]),
@@ -259,6 +344,12 @@ Trainer::Batch Trainer::MakeBatch(int iteration) const {
   batch.target = torch::stack(frames[1]).contiguous(format);
   batch.next = torch::stack(frames[2]).contiguous(format);
   batch.intrinsics = torch::tensor(intrinsics).view({options_.batch_size, 4});
+  if (batch.has_ground_truth) {
+    for (int s = 0; s < 2; ++s) {
+      batch.gt_rotation[s] = torch::tensor(gt_rotation[s]).view({options_.batch_size, 3, 3});
+      batch.gt_translation[s] = torch::tensor(gt_translation[s]).view({options_.batch_size, 3});
+    }
+  }
   return batch;
 }
 
@@ -313,6 +404,9 @@ StepRecord Trainer::JointStep(const Batch& batch, int iteration) {
   // mean read 10 m).
   DepthNetOutput depth = raw_depth;
   torch::Tensor scale_prior = torch::zeros({});
+  const bool ground_truth_poses = options_.pose_source == TrainingOptions::PoseSource::kGroundTruth;
+  // (Also with ground-truth poses: unnormalised, the initial 0.2 m depths put every warped pixel
+  // outside the sources and the depth collapsed to the 0.1 m floor; measured.)
   if (options_.loss.depth_mean_m > 0.0) {
     const torch::Tensor log_mean = torch::log(raw_depth.depth[0]).mean();
     const double log_target = std::log(options_.loss.depth_mean_m);
@@ -338,70 +432,83 @@ StepRecord Trainer::JointStep(const Batch& batch, int iteration) {
   }
 
   const auto t1 = Clock::now();
-  // Poses source_from_target by the differentiable alignment, per sample and source.
-  std::vector<torch::Tensor> rotations[2], translations[2];
-  int gn_ok = 0;
-  for (int b = 0; b < n; ++b) {
-    AlignmentView ref;
-    for (int l = 0; l < levels; ++l) {
-      ref.features.push_back(target_z[l][b]);
-      ref.cameras.push_back(batch.cameras[b].PyramidLevel(l));
-      ref.depth.push_back(depth.depth[l][b][0]);
-      if (options_.gn_use_masks) ref.masks.push_back(masks[l][b][0]);
-    }
+  // Poses source_from_target by the differentiable alignment, per sample and source (or, as a
+  // diagnostic, the ground truth).
+  torch::Tensor rotation[2], translation[2];
+  if (ground_truth_poses) {
+    DFO_CHECK(batch.has_ground_truth);
     for (int s = 0; s < 2; ++s) {
-      AlignmentView cur;
-      cur.cameras = ref.cameras;
-      for (int l = 0; l < levels; ++l) cur.features.push_back(source_z[s][l][b]);
-      const DiffGnResult gn =
-          DifferentiableAlign(ref, cur, PoseTensor::FromSE3(SE3d()), options_.gn);
-      if (gn.ok) {
-        ++gn_ok;
-        rotations[s].push_back(gn.cur_from_ref.rotation.to(torch::kFloat32));
-        translations[s].push_back(gn.cur_from_ref.translation.to(torch::kFloat32));
-      } else {
-        // A failed alignment contributes no pose gradient: the identity warp does not depend on
-        // the depth or the features, so the sample only adds a constant to the loss.
-        rotations[s].push_back(torch::eye(3));
-        translations[s].push_back(torch::zeros({3}));
+      rotation[s] = batch.gt_rotation[s];
+      translation[s] = batch.gt_translation[s];
+    }
+    rec.gn_ok_ratio = 0.0;
+  } else {
+    std::vector<torch::Tensor> rotations[2], translations[2];
+    int gn_ok = 0;
+    double sum_rotation_error = 0.0, sum_direction_error = 0.0;
+    int num_rotation_errors = 0, num_direction_errors = 0;
+    for (int b = 0; b < n; ++b) {
+      AlignmentView ref;
+      for (int l = 0; l < levels; ++l) {
+        ref.features.push_back(target_z[l][b]);
+        ref.cameras.push_back(batch.cameras[b].PyramidLevel(l));
+        ref.depth.push_back(depth.depth[l][b][0]);
+        if (options_.gn_use_masks) ref.masks.push_back(masks[l][b][0]);
+      }
+      for (int s = 0; s < 2; ++s) {
+        AlignmentView cur;
+        cur.cameras = ref.cameras;
+        for (int l = 0; l < levels; ++l) cur.features.push_back(source_z[s][l][b]);
+        const DiffGnResult gn =
+            DifferentiableAlign(ref, cur, PoseTensor::FromSE3(SE3d()), options_.gn);
+        if (gn.ok) {
+          ++gn_ok;
+          rotations[s].push_back(gn.cur_from_ref.rotation.to(torch::kFloat32));
+          translations[s].push_back(gn.cur_from_ref.translation.to(torch::kFloat32));
+          if (batch.has_ground_truth) {
+            // Diagnostic only: the alignment's pose against the ground truth.
+            const PoseError e = ComparePoses(
+                gn.cur_from_ref.ToSE3(), PoseTensor{batch.gt_rotation[s][b].to(torch::kFloat64),
+                                                    batch.gt_translation[s][b].to(torch::kFloat64)}
+                                             .ToSE3());
+            sum_rotation_error += e.rotation_deg;
+            ++num_rotation_errors;
+            if (std::isfinite(e.direction_deg)) {
+              sum_direction_error += e.direction_deg;
+              ++num_direction_errors;
+            }
+          }
+        } else {
+          // A failed alignment contributes no pose gradient: the identity warp does not depend
+          // on the depth or the features, so the sample only adds a constant to the loss.
+          rotations[s].push_back(torch::eye(3));
+          translations[s].push_back(torch::zeros({3}));
+        }
       }
     }
+    for (int s = 0; s < 2; ++s) {
+      rotation[s] = torch::stack(rotations[s]);
+      translation[s] = torch::stack(translations[s]);
+    }
+    rec.gn_ok_ratio = static_cast<double>(gn_ok) / (2.0 * n);
+    if (num_rotation_errors > 0)
+      rec.pose_rotation_error_deg = sum_rotation_error / num_rotation_errors;
+    if (num_direction_errors > 0) {
+      rec.pose_direction_error_deg = sum_direction_error / num_direction_errors;
+    }
   }
-  rec.gn_ok_ratio = static_cast<double>(gn_ok) / (2.0 * n);
   const auto t2 = Clock::now();
 
   // Appearance (minimum over the sources) and smoothness over the levels.
   const std::vector<torch::Tensor> targets = ImagePyramid(batch.target, levels);
-  const std::vector<torch::Tensor> previous = ImagePyramid(batch.previous, levels);
-  const std::vector<torch::Tensor> next = ImagePyramid(batch.next, levels);
-  torch::Tensor appearance = torch::zeros({});
+  const torch::Tensor appearance =
+      ViewSynthesisLoss(batch, depth.depth, rotation, translation, options_.loss);
   torch::Tensor smoothness = torch::zeros({});
   for (int l = 0; l < levels; ++l) {
     const double scale = 1.0 / (1 << l);
-    // Level intrinsics: PyramidLevel's (c + 0.5) / 2^l - 0.5.
-    torch::Tensor k = batch.intrinsics.clone();
-    k.select(1, 0).mul_(scale);
-    k.select(1, 1).mul_(scale);
-    k.select(1, 2).add_(0.5).mul_(scale).sub_(0.5);
-    k.select(1, 3).add_(0.5).mul_(scale).sub_(0.5);
-    const torch::Tensor d = depth.depth[l].contiguous();
-    std::vector<torch::Tensor> maps;
-    for (int s = 0; s < 2; ++s) {
-      torch::Tensor valid;
-      const torch::Tensor warped =
-          InverseWarp((s == 0 ? previous : next)[l].contiguous(), d, torch::stack(rotations[s]),
-                      torch::stack(translations[s]), k, &valid);
-      const torch::Tensor map = AppearanceMap(targets[l].contiguous(), warped, options_.loss);
-      // Invalid pixels (outside the source) lose the minimum to any valid one.
-      maps.push_back(map + (1.0 - valid) * 1e3);
-    }
-    const torch::Tensor best = std::get<0>(torch::min(torch::cat(maps, 1), 1, true));
-    const torch::Tensor valid_any = (best < 1e2).to(torch::kFloat32);
-    appearance = appearance + (best * valid_any).sum() / valid_any.sum().clamp_min(1.0);
     const torch::Tensor disparity = 10.0 * depth.sigmoid[l] + 0.01;
     smoothness = smoothness + SmoothnessLoss(disparity, targets[l]) * scale;
   }
-  appearance = appearance / levels;
   torch::Tensor reconstruction = torch::zeros({});
   if (options_.loss.ae_weight > 0.0) {
     const std::vector<torch::Tensor> recon = networks_->feature->Reconstruct(target.features);
@@ -505,7 +612,9 @@ void Trainer::SaveCheckpoint(const std::string& path) const {
                                          r.temperature,
                                          r.gn_ok_ratio,
                                          r.mean_depth,
-                                         r.seconds};
+                                         r.seconds,
+                                         r.pose_rotation_error_deg,
+                                         r.pose_direction_error_deg};
     for (int c = 0; c < kHistoryColumns; ++c) a[i][c] = row[c];
   }
   archive.write("history", h);
@@ -580,6 +689,10 @@ void Trainer::LoadCheckpoint(const std::string& path) {
       r.gn_ok_ratio = a[i][9];
       r.mean_depth = a[i][10];
       r.seconds = a[i][11];
+      if (h.size(1) >= kHistoryColumns) {
+        r.pose_rotation_error_deg = a[i][12];
+        r.pose_direction_error_deg = a[i][13];
+      }
       history_.push_back(r);
     }
   } catch (const c10::Error& e) {
@@ -616,13 +729,14 @@ void WriteHistoryCsv(const std::string& path, const std::vector<StepRecord>& his
   std::ofstream out(path);
   if (!out) throw InputError("loss history " + path + ": cannot be written");
   out << "iteration,stage,total,appearance,smoothness,sparsity,reconstruction,learning_rate,"
-         "temperature,gn_ok_ratio,mean_depth_m,seconds\n";
+         "temperature,gn_ok_ratio,mean_depth_m,seconds,pose_rotation_error_deg,"
+         "pose_direction_error_deg\n";
   out.precision(9);
   for (const StepRecord& r : history) {
     out << r.iteration << "," << r.stage << "," << r.total << "," << r.appearance << ","
         << r.smoothness << "," << r.sparsity << "," << r.reconstruction << "," << r.learning_rate
         << "," << r.temperature << "," << r.gn_ok_ratio << "," << r.mean_depth << "," << r.seconds
-        << "\n";
+        << "," << r.pose_rotation_error_deg << "," << r.pose_direction_error_deg << "\n";
   }
   if (!out) throw InputError("loss history " + path + ": write failed");
 }
@@ -640,7 +754,7 @@ std::vector<StepRecord> ReadHistoryCsv(const std::string& path) {
     std::string field;
     std::vector<std::string> f;
     while (std::getline(ss, field, ',')) f.push_back(field);
-    if (f.size() != kHistoryColumns) {
+    if (f.size() != kHistoryColumns && f.size() != kOldHistoryColumns) {
       std::ostringstream msg;
       msg << "loss history " << path << ":" << line_no << ": " << f.size() << " fields, expected "
           << kHistoryColumns;
@@ -660,6 +774,10 @@ std::vector<StepRecord> ReadHistoryCsv(const std::string& path) {
       r.gn_ok_ratio = std::stod(f[9]);
       r.mean_depth = std::stod(f[10]);
       r.seconds = std::stod(f[11]);
+      if (f.size() == kHistoryColumns) {
+        r.pose_rotation_error_deg = std::stod(f[12]);
+        r.pose_direction_error_deg = std::stod(f[13]);
+      }
       out.push_back(r);
     } catch (const std::exception&) {
       std::ostringstream msg;

@@ -27,6 +27,7 @@
 #include <atomic>
 #include <cstdint>
 #include <functional>
+#include <limits>
 #include <memory>
 #include <random>
 #include <string>
@@ -34,6 +35,7 @@
 
 #include "dfo_core/camera.h"
 #include "dfo_core/image.h"
+#include "dfo_core/lie.h"
 #include "dfo_frontend/learned/internal/diff_gn.h"
 #include "dfo_frontend/learned/internal/losses.h"
 #include "dfo_frontend/learned/internal/networks.h"
@@ -47,6 +49,10 @@ struct TrainingSequence {
   std::string name;             // for messages ("seq 101")
   std::vector<ImageU8> images;  // RGB, camera.width x camera.height each
   PinholeCamera camera;         // intrinsics of `images`
+  // Ground-truth poses (camera-to-world), one per image, or empty when unknown. Never used by the
+  // losses of the default training: only for the pose-error diagnostic (StepRecord) and the
+  // diagnostic pose source TrainingOptions::PoseSource::kGroundTruth.
+  std::vector<SE3d> world_from_cam;
 };
 
 // A 3-frame snippet: frames index - 1, index, index + 1 of sequence `sequence`.
@@ -86,6 +92,15 @@ struct TrainingOptions {
   // Backpropagate through the source views' feature network (false: sources are computed without
   // gradients, which saves about a third of the step; the target branch still learns).
   bool source_feature_grad = false;
+  // Where the warp's poses come from. kAlignment (the method): the differentiable GN.
+  // kGroundTruth is a DIAGNOSTIC only (it breaks self-supervision): the warp uses the sequences'
+  // ground-truth relative poses (every training sequence needs world_from_cam) and the GN is not
+  // run, so the feature network learns only from the reconstruction and sparsity terms. The depth
+  // keeps the scale gauge (batch geometric mean loss.depth_mean_m) while the true translation is
+  // metric: a per-batch scale error, harmless for median-scaled metrics. It separates "the warp /
+  // loss / depth pipeline cannot learn" from "the alignment's poses are wrong".
+  enum class PoseSource { kAlignment, kGroundTruth };
+  PoseSource pose_source = PoseSource::kAlignment;
 
   int batch_size = 4;  // snippets per iteration, >= 1
   // Snippets whose target differs from either neighbour by less than this mean absolute grey
@@ -129,6 +144,12 @@ struct StepRecord {
   double gn_ok_ratio = 0.0;  // fraction of alignments whose finest level succeeded
   double mean_depth = 0.0;   // median predicted depth of the batch's targets (m)
   double seconds = 0.0;      // wall time of the step
+  // Diagnostic only (never in the loss): mean error of the alignment's source_from_target poses
+  // against the ground truth over the batch's successful alignments, when the data has poses
+  // (NaN otherwise, and in the AE stage): rotation angle (degrees) and the angle between the
+  // translation directions (degrees, scale-free; > 90 means the motion's sign is wrong).
+  double pose_rotation_error_deg = std::numeric_limits<double>::quiet_NaN();
+  double pose_direction_error_deg = std::numeric_limits<double>::quiet_NaN();
 };
 
 // The run: networks, optimiser, data, history. Not thread-safe; deterministic for a given seed,
@@ -180,6 +201,11 @@ class Trainer {
     torch::Tensor previous, target, next;
     torch::Tensor intrinsics;
     std::vector<PinholeCamera> cameras;  // per sample, training size
+    std::vector<Snippet> snippets;       // per sample
+    // Ground-truth source_from_target poses (index 0: previous, 1: next; rotation N x 3 x 3,
+    // translation N x 3, float), defined only when every sample's sequence has poses.
+    bool has_ground_truth = false;
+    torch::Tensor gt_rotation[2], gt_translation[2];
   };
   Batch MakeBatch(int iteration) const;
 
@@ -199,6 +225,25 @@ class Trainer {
   int iteration_ = 0;
   std::vector<StepRecord> history_;
 };
+
+// The view-synthesis (appearance) loss of the joint stage: per level l (images average-pooled
+// to the depth's level size, intrinsics scaled by PinholeCamera::PyramidLevel's rule), both
+// sources warped into the target with depth[l] (N x 1 x H_l x W_l, metres) and the poses
+// source_from_target (rotations[s] N x 3 x 3, translations[s] N x 3; s = 0 previous, 1 next),
+// the per-pixel minimum over the sources of AppearanceMap (pixels outside both sources
+// excluded), averaged over the valid pixels and then over the levels. 0-dim tensor.
+torch::Tensor ViewSynthesisLoss(const Trainer::Batch& batch,
+                                const std::vector<torch::Tensor>& depth,
+                                const torch::Tensor rotations[2],
+                                const torch::Tensor translations[2], const LossOptions& options);
+
+// Angles (degrees) between two poses b_from_a: rotation error and the angle between the
+// translation directions (NaN when either translation is shorter than 1e-9).
+struct PoseError {
+  double rotation_deg = 0.0;
+  double direction_deg = 0.0;
+};
+PoseError ComparePoses(const SE3d& estimate, const SE3d& truth);
 
 // Converts an RGB (or grey, replicated) 8-bit image into a 1 x 3 x H x W float tensor in [0, 1].
 torch::Tensor ImageToTensor(const ImageU8& image);
