@@ -176,9 +176,11 @@ class Listener {
         break;
       case Kind::kKeyframes:
         if (!args_.quiet) {
-          std::printf("keyframes after frame %d: %d poses%s\n", e.keyframes.frame_index,
-                      e.keyframes.num_keyframes,
-                      e.keyframes.optimized ? "" : " (solve not kept: previous poses)");
+          const char* note = e.keyframes.optimized           ? ""
+                             : e.keyframes.num_keyframes < 2 ? " (no solve yet)"
+                                                             : " (solve not kept: previous poses)";
+          std::printf("keyframes after frame %d: %d pose%s%s\n", e.keyframes.frame_index,
+                      e.keyframes.num_keyframes, e.keyframes.num_keyframes == 1 ? "" : "s", note);
         }
         break;
       case Kind::kStatus:

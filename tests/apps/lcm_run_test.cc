@@ -355,6 +355,18 @@ TEST(LcmListen, MalformedMessagesAreReportedAndSkipped) {
   EXPECT_EQ(t[2].world_from_cam.translation().x(), 2.0);
 }
 
+// Ctrl-C (SIGINT) ends a live listener normally, with the trajectory file written.
+TEST(LcmListen, InterruptEndsWithTheFileWritten) {
+  const std::string dir = test::MakeTempDir("lcm_interrupt");
+  const CommandResult r = RunScript(UdpmSetup(), dir,
+                                    StartListener(dir, "--url memq:// --tum " + dir + "/t.txt") +
+                                        "kill -INT $pid\n"
+                                        "wait $pid\n");
+  ASSERT_EQ(r.status, 0) << r.err << Slurp(dir + "/listen.err");
+  EXPECT_NE(Slurp(dir + "/listen.out").find("dfo_lcm_listen: interrupted"), std::string::npos);
+  EXPECT_EQ(Slurp(dir + "/t.txt"), "# timestamp tx ty tz qx qy qz qw\n");
+}
+
 TEST(LcmListen, CommandLineAndStartUpErrors) {
   EXPECT_EQ(RunCommand(DFO_LCM_LISTEN_EXE, "--help").status, 0);
   const CommandResult unknown = RunCommand(DFO_LCM_LISTEN_EXE, "--nonsense");
