@@ -15,7 +15,11 @@ PACKAGES=(
   python3-torch
   googletest libgtest-dev libgmock-dev
   iproute2
+  slurm-wlm munge   # dfo_sweep --slurm and its test (a throw-away local cluster, tools/local_slurm.sh)
 )
+# Services these packages enable on a systemd machine; the install leaves them stopped and disabled
+# (dfo's test starts its own daemons with its own key, socket and ports).
+SERVICES_OFF=(slurmctld slurmd munge)
 
 missing=()
 for p in "${PACKAGES[@]}"; do
@@ -59,5 +63,14 @@ fi
 if ! $SUDO apt-get install -y -q --no-install-recommends -o DPkg::Lock::Timeout=300 "${missing[@]}"; then
   echo "install_deps: ERROR: apt-get install failed for: ${missing[*]}" >&2
   exit 1
+fi
+# Debian enables (munge: and starts) these daemons on install; dfo wants none of them running.
+if [ -d /run/systemd/system ] && command -v systemctl >/dev/null 2>&1; then
+  for unit in "${SERVICES_OFF[@]}"; do
+    pkg=$unit; [ "$unit" = munge ] || pkg=slurm-wlm
+    if printf '%s\n' "${missing[@]}" | grep -qx "$pkg"; then
+      $SUDO systemctl disable --now "$unit" >/dev/null 2>&1 || true
+    fi
+  done
 fi
 echo "install_deps: done"
