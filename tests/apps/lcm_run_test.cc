@@ -62,104 +62,7 @@ std::string RunArgs(const std::string& out) {
          " --output " + out + " --set run.progress=none --set run.plot=false";
 }
 
-TEST(LcmConfig, SchemaDefaultsMatchTheStructs) {
-  const io::Config config(io::DfoSchema());
-  const apps::LcmStreamOptions o = apps::LcmStreamOptionsFromConfig(config);
-  const apps::LcmStreamOptions d;
-  const io::LcmChannels c;
-  EXPECT_EQ(o.enable, d.enable);
-  EXPECT_EQ(o.url, d.url);
-  EXPECT_EQ(o.url, io::kDefaultLcmUrl);
-  EXPECT_EQ(o.log_path, d.log_path);
-  EXPECT_EQ(o.channels.pose, c.pose);
-  EXPECT_EQ(o.channels.keyframes, c.keyframes);
-  EXPECT_EQ(o.channels.status, c.status);
-  EXPECT_EQ(o.channels.stop, c.stop);
-  EXPECT_FALSE(o.active());
-}
-
-TEST(LcmConfig, SharedChannelOrEmptyUrlIsAnError) {
-  io::Config config(io::DfoSchema());
-  config.ApplyOverride("lcm.status_channel=DFO_POSE");
-  EXPECT_THROW(apps::LcmStreamOptionsFromConfig(config), ConfigError);
-  io::Config empty_url(io::DfoSchema());
-  empty_url.ApplyOverride("lcm.enable=true");
-  empty_url.ApplyOverride("lcm.url=");
-  EXPECT_THROW(apps::LcmStreamOptionsFromConfig(empty_url), ConfigError);
-
-  const std::string out = test::MakeTempDir("lcm_shared_channel");
-  const CommandResult r =
-      RunCommand(DFO_RUN_EXE, RunArgs(out) + " --set lcm.stop_channel=DFO_POSE");
-  EXPECT_EQ(r.status, 1);
-  EXPECT_NE(r.err.find("lcm.stop_channel and lcm.pose_channel are both 'DFO_POSE'"),
-            std::string::npos)
-      << r.err;
-}
-
-// The log dfo_run writes holds, per frame, the poses of both estimates; read back (in-process
-// and by dfo_lcm_listen --log) it gives the trajectory files byte for byte.
-TEST(LcmRun, LogReadBackEqualsTheTrajectoryFiles) {
-  const std::string dir = test::MakeTempDir("lcm_log_run");
-  const std::string out = dir + "/run";
-  const std::string log = dir + "/run.lcmlog";
-  const CommandResult r = RunCommand(DFO_RUN_EXE, RunArgs(out) + " --set lcm.log_path=" + log);
-  ASSERT_EQ(r.status, 0) << r.out << r.err;
-  EXPECT_NE(r.out.find("lcm:         "), std::string::npos) << r.out;
-  EXPECT_NE(r.out.find("publishing per frame median"), std::string::npos) << r.out;
-
-  io::LcmTrajectoryCollector collector;
-  int malformed = 0;
-  io::ReadLcmLog(log, [&](const std::string& channel, const void* data, size_t size) {
-    const io::LcmCollectorEvent e = collector.Handle(channel, data, size);
-    malformed += e.kind == io::LcmCollectorEvent::Kind::kMalformed ? 1 : 0;
-    return true;
-  });
-  EXPECT_EQ(malformed, 0);
-  EXPECT_EQ(collector.counts().frontend_poses, kFrames);
-  EXPECT_EQ(collector.counts().windowed_poses, kFrames);
-  EXPECT_EQ(collector.counts().status, kFrames + 1);
-  ASSERT_TRUE(collector.stopped());
-  EXPECT_EQ(collector.stop_message()->reason, "finished");
-  EXPECT_EQ(collector.stop_message()->frames_done, kFrames);
-  const io::JsonValue summary = io::ParseJson(Slurp(out + "/summary.json"), "summary.json");
-  EXPECT_EQ(collector.counts().keyframe_batches, summary["keyframes"]["count"].AsInt());
-  EXPECT_GE(collector.counts().keyframe_batches, 3);
-  EXPECT_EQ(collector.last_status()->frames_done, kFrames);
-
-  io::WriteTumTrajectory(dir + "/frontend_from_log.txt", collector.FrontendTrajectory());
-  io::WriteTumTrajectory(dir + "/windowed_from_log.txt", collector.WindowedTrajectory());
-  EXPECT_EQ(Slurp(dir + "/frontend_from_log.txt"), Slurp(out + "/frontend_tum.txt"));
-  EXPECT_EQ(Slurp(dir + "/windowed_from_log.txt"), Slurp(out + "/windowed_tum.txt"));
-  // The windowed trajectory moved after publication: the batches mattered.
-  EXPECT_NE(Slurp(out + "/frontend_tum.txt"), Slurp(out + "/windowed_tum.txt"));
-
-  const CommandResult listen =
-      RunCommand(DFO_LCM_LISTEN_EXE, "--log " + log + " --tum " + dir + "/listen_windowed.txt");
-  ASSERT_EQ(listen.status, 0) << listen.out << listen.err;
-  EXPECT_TRUE(listen.err.empty()) << listen.err;
-  EXPECT_EQ(Slurp(dir + "/listen_windowed.txt"), Slurp(out + "/windowed_tum.txt"));
-  EXPECT_NE(listen.out.find("stop after " + std::to_string(kFrames) + " frames: finished"),
-            std::string::npos)
-      << listen.out;
-  const CommandResult frontend = RunCommand(
-      DFO_LCM_LISTEN_EXE, "--log " + log + " --quiet --source frontend --tum " + dir + "/f.txt");
-  ASSERT_EQ(frontend.status, 0) << frontend.err;
-  EXPECT_EQ(Slurp(dir + "/f.txt"), Slurp(out + "/frontend_tum.txt"));
-  EXPECT_EQ(frontend.out.find("pose "), std::string::npos) << "--quiet printed poses";
-}
-
-TEST(LcmRun, UnopenableUrlStopsAtStartUp) {
-  const std::string out = test::MakeTempDir("lcm_bad_url") + "/run";
-  const CommandResult r =
-      RunCommand(DFO_RUN_EXE, RunArgs(out) + " --set lcm.enable=true --set lcm.url=nosuch://host");
-  EXPECT_EQ(r.status, 1);
-  EXPECT_NE(r.err.find("cannot open LCM URL 'nosuch://host': unknown LCM provider 'nosuch'"),
-            std::string::npos)
-      << r.err;
-  EXPECT_FALSE(fs::exists(out + "/frontend_tum.txt")) << "the run started anyway";
-}
-
-// Runs `script` with sh inside a fresh network namespace; -1 when unshare is not permitted.
+// True when this process may make a network namespace with loopback multicast (`unshare -n`).
 bool CanUnshareNetwork() {
   static const int ok =
       RunCommand("unshare", "-n sh -c 'ip link set lo up && ip route add 224.0.0.0/4 dev lo'")
@@ -167,22 +70,6 @@ bool CanUnshareNetwork() {
           ? 1
           : 0;
   return ok == 1;
-}
-
-TEST(LcmRun, UdpmWithoutMulticastRouteNamesTheFix) {
-  if (!CanUnshareNetwork()) {
-    GTEST_SKIP() << "`unshare -n` is not permitted here (needs root or user namespaces), so a "
-                    "network without a multicast route cannot be made";
-  }
-  const std::string out = test::MakeTempDir("lcm_no_route") + "/run";
-  // A bare namespace: loopback down, no routes at all.
-  const CommandResult r = RunCommand(
-      "unshare", std::string("-n ") + DFO_RUN_EXE + " " + RunArgs(out) + " --set lcm.enable=true");
-  EXPECT_EQ(r.status, 1);
-  EXPECT_NE(r.err.find(std::string("cannot open LCM URL '") + io::kDefaultLcmUrl + "'"),
-            std::string::npos)
-      << r.err;
-  EXPECT_NE(r.err.find("sudo ip route add 224.0.0.0/4 dev lo"), std::string::npos) << r.err;
 }
 
 // How the two processes reach each other over udpm.
@@ -243,6 +130,134 @@ std::string StartListener(const std::string& dir, const std::string& args) {
          "/listen.err >&2; exit 91; fi\n"
          "  sleep 0.05\n"
          "done\n";
+}
+
+TEST(LcmConfig, SchemaDefaultsMatchTheStructs) {
+  const io::Config config(io::DfoSchema());
+  const apps::LcmStreamOptions o = apps::LcmStreamOptionsFromConfig(config);
+  const apps::LcmStreamOptions d;
+  const io::LcmChannels c;
+  EXPECT_EQ(o.enable, d.enable);
+  EXPECT_EQ(o.url, d.url);
+  EXPECT_EQ(o.url, io::kDefaultLcmUrl);
+  EXPECT_EQ(o.log_path, d.log_path);
+  EXPECT_EQ(o.channels.pose, c.pose);
+  EXPECT_EQ(o.channels.keyframes, c.keyframes);
+  EXPECT_EQ(o.channels.status, c.status);
+  EXPECT_EQ(o.channels.stop, c.stop);
+  EXPECT_FALSE(o.active());
+}
+
+TEST(LcmConfig, SharedChannelOrEmptyUrlIsAnError) {
+  io::Config config(io::DfoSchema());
+  config.ApplyOverride("lcm.status_channel=DFO_POSE");
+  EXPECT_THROW(apps::LcmStreamOptionsFromConfig(config), ConfigError);
+  io::Config empty_url(io::DfoSchema());
+  empty_url.ApplyOverride("lcm.enable=true");
+  empty_url.ApplyOverride("lcm.url=");
+  EXPECT_THROW(apps::LcmStreamOptionsFromConfig(empty_url), ConfigError);
+
+  const std::string out = test::MakeTempDir("lcm_shared_channel");
+  const CommandResult r =
+      RunCommand(DFO_RUN_EXE, RunArgs(out) + " --set lcm.stop_channel=DFO_POSE");
+  EXPECT_EQ(r.status, 1);
+  EXPECT_NE(r.err.find("lcm.stop_channel and lcm.pose_channel are both 'DFO_POSE'"),
+            std::string::npos)
+      << r.err;
+}
+
+// The log dfo_run writes holds, per frame, the poses of both estimates; read back (in-process
+// and by dfo_lcm_listen --log) it gives the trajectory files byte for byte.
+TEST(LcmRun, LogReadBackEqualsTheTrajectoryFiles) {
+  const std::string dir = test::MakeTempDir("lcm_log_run");
+  const std::string out = dir + "/run";
+  const std::string log = dir + "/run.lcmlog";
+  // Live publishing too, with nobody listening: over udpm where it can be opened (else memq://).
+  UdpmSetup setup = FindUdpmSetup();
+  if (!setup.usable) {
+    setup = UdpmSetup();
+    setup.url = "memq://";
+  }
+  const CommandResult r = RunScript(setup, dir,
+                                    std::string("\"") + DFO_RUN_EXE + "\" " + RunArgs(out) +
+                                        " --set lcm.enable=true --set 'lcm.url=" + setup.url +
+                                        "' --set lcm.log_path=" + log + "\n");
+  ASSERT_EQ(r.status, 0) << r.out << r.err;
+
+  EXPECT_NE(r.out.find("lcm:         "), std::string::npos) << r.out;
+  EXPECT_NE(r.out.find("publishing per frame median"), std::string::npos) << r.out;
+
+  io::LcmTrajectoryCollector collector;
+  int malformed = 0;
+  const int64_t events =
+      io::ReadLcmLog(log, [&](const std::string& channel, const void* data, size_t size) {
+        const io::LcmCollectorEvent e = collector.Handle(channel, data, size);
+        malformed += e.kind == io::LcmCollectorEvent::Kind::kMalformed ? 1 : 0;
+        return true;
+      });
+  EXPECT_EQ(malformed, 0);
+  // Every message went live and into the log, none failed.
+  EXPECT_NE(r.out.find("lcm:         " + std::to_string(events) + " messages"), std::string::npos)
+      << r.out;
+  EXPECT_EQ(r.err.find("LCM publications failed"), std::string::npos) << r.err;
+  EXPECT_EQ(collector.counts().frontend_poses, kFrames);
+  EXPECT_EQ(collector.counts().windowed_poses, kFrames);
+  EXPECT_EQ(collector.counts().status, kFrames + 1);
+  ASSERT_TRUE(collector.stopped());
+  EXPECT_EQ(collector.stop_message()->reason, "finished");
+  EXPECT_EQ(collector.stop_message()->frames_done, kFrames);
+  const io::JsonValue summary = io::ParseJson(Slurp(out + "/summary.json"), "summary.json");
+  EXPECT_EQ(collector.counts().keyframe_batches, summary["keyframes"]["count"].AsInt());
+  EXPECT_GE(collector.counts().keyframe_batches, 3);
+  EXPECT_EQ(collector.last_status()->frames_done, kFrames);
+
+  io::WriteTumTrajectory(dir + "/frontend_from_log.txt", collector.FrontendTrajectory());
+  io::WriteTumTrajectory(dir + "/windowed_from_log.txt", collector.WindowedTrajectory());
+  EXPECT_EQ(Slurp(dir + "/frontend_from_log.txt"), Slurp(out + "/frontend_tum.txt"));
+  EXPECT_EQ(Slurp(dir + "/windowed_from_log.txt"), Slurp(out + "/windowed_tum.txt"));
+  // The windowed trajectory moved after publication: the batches mattered.
+  EXPECT_NE(Slurp(out + "/frontend_tum.txt"), Slurp(out + "/windowed_tum.txt"));
+
+  const CommandResult listen =
+      RunCommand(DFO_LCM_LISTEN_EXE, "--log " + log + " --tum " + dir + "/listen_windowed.txt");
+  ASSERT_EQ(listen.status, 0) << listen.out << listen.err;
+  EXPECT_TRUE(listen.err.empty()) << listen.err;
+  EXPECT_EQ(Slurp(dir + "/listen_windowed.txt"), Slurp(out + "/windowed_tum.txt"));
+  EXPECT_NE(listen.out.find("stop after " + std::to_string(kFrames) + " frames: finished"),
+            std::string::npos)
+      << listen.out;
+  const CommandResult frontend = RunCommand(
+      DFO_LCM_LISTEN_EXE, "--log " + log + " --quiet --source frontend --tum " + dir + "/f.txt");
+  ASSERT_EQ(frontend.status, 0) << frontend.err;
+  EXPECT_EQ(Slurp(dir + "/f.txt"), Slurp(out + "/frontend_tum.txt"));
+  EXPECT_EQ(frontend.out.find("pose "), std::string::npos) << "--quiet printed poses";
+}
+
+TEST(LcmRun, UnopenableUrlStopsAtStartUp) {
+  const std::string out = test::MakeTempDir("lcm_bad_url") + "/run";
+  const CommandResult r =
+      RunCommand(DFO_RUN_EXE, RunArgs(out) + " --set lcm.enable=true --set lcm.url=nosuch://host");
+  EXPECT_EQ(r.status, 1);
+  EXPECT_NE(r.err.find("cannot open LCM URL 'nosuch://host': unknown LCM provider 'nosuch'"),
+            std::string::npos)
+      << r.err;
+  EXPECT_FALSE(fs::exists(out + "/frontend_tum.txt")) << "the run started anyway";
+}
+
+TEST(LcmRun, UdpmWithoutMulticastRouteNamesTheFix) {
+  if (!CanUnshareNetwork()) {
+    GTEST_SKIP() << "`unshare -n` is not permitted here (needs root or user namespaces), so a "
+                    "network without a multicast route cannot be made";
+  }
+  const std::string out = test::MakeTempDir("lcm_no_route") + "/run";
+  // A bare namespace: loopback down, no routes at all.
+  const CommandResult r = RunCommand(
+      "unshare", std::string("-n ") + DFO_RUN_EXE + " " + RunArgs(out) + " --set lcm.enable=true");
+  EXPECT_EQ(r.status, 1);
+  EXPECT_NE(r.err.find(std::string("cannot open LCM URL '") + io::kDefaultLcmUrl + "'"),
+            std::string::npos)
+      << r.err;
+  EXPECT_NE(r.err.find("sudo ip route add 224.0.0.0/4 dev lo"), std::string::npos) << r.err;
 }
 
 TEST(LcmTwoProcesses, ListenerReceivesEveryFrameOverUdpm) {
