@@ -153,6 +153,7 @@ learned::TrainingOptions OptionsFromConfig(const io::Config& c) {
   o.gn.outlier_rule = c.GetBool("gn.outlier_rule");
   o.gn_use_masks = c.GetBool("gn.use_masks");
   o.source_feature_grad = c.GetBool("gn.source_feature_grad");
+  o.pose_gradient = c.GetBool("gn.pose_gradient");
   o.pose_source = c.GetString("gn.pose_source") == "ground_truth"
                       ? learned::TrainingOptions::PoseSource::kGroundTruth
                       : learned::TrainingOptions::PoseSource::kAlignment;
@@ -351,7 +352,10 @@ int Run(const Args& args) {
     data = LoadData(config, options);
   }
   learned::TrainingOptions effective = options;
-  if (inference_only) effective.static_threshold = 0.0;
+  if (inference_only) {
+    effective.static_threshold = 0.0;
+    effective.pose_source = learned::TrainingOptions::PoseSource::kAlignment;  // no poses needed
+  }
   learned::Trainer trainer(effective, std::move(data));
   if (have_checkpoint) {
     trainer.LoadCheckpoint(checkpoint);

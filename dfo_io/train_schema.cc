@@ -91,6 +91,9 @@ ConfigSchema BuildTrainSchema() {
             "tracker's gradient rule)");
   s.AddBool("gn.source_feature_grad", false,
             "Backpropagate through the source views' feature network (slower)");
+  s.AddBool("gn.pose_gradient", true,
+            "Backpropagate the appearance loss through the alignment's pose (false: the pose is "
+            "a constant of each step)");
   s.AddString("gn.pose_source", "alignment",
               "Poses of the warp: alignment (the method) or ground_truth (DIAGNOSTIC only: the "
               "sequences' true poses, no GN; not self-supervised)")

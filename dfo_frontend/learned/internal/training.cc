@@ -489,6 +489,10 @@ StepRecord Trainer::JointStep(const Batch& batch, int iteration) {
     for (int s = 0; s < 2; ++s) {
       rotation[s] = torch::stack(rotations[s]);
       translation[s] = torch::stack(translations[s]);
+      if (!options_.pose_gradient) {
+        rotation[s] = rotation[s].detach();
+        translation[s] = translation[s].detach();
+      }
     }
     rec.gn_ok_ratio = static_cast<double>(gn_ok) / (2.0 * n);
     if (num_rotation_errors > 0)

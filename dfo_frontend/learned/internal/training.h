@@ -100,6 +100,10 @@ struct TrainingOptions {
   // metric: a per-batch scale error, harmless for median-scaled metrics. It separates "the warp /
   // loss / depth pipeline cannot learn" from "the alignment's poses are wrong".
   enum class PoseSource { kAlignment, kGroundTruth };
+  // Backpropagate the view-synthesis loss through the alignment's pose (the paper: the feature
+  // net, its masks and the depth learn through the unrolled GN). false: the pose is a constant
+  // of each step (alternating: the depth is fitted to the alignment's current pose).
+  bool pose_gradient = true;
   PoseSource pose_source = PoseSource::kAlignment;
 
   int batch_size = 4;  // snippets per iteration, >= 1
