@@ -209,12 +209,15 @@ void PrintLcmLine(const apps::LcmRunStreamer& streamer, const std::vector<double
   const io::LcmPublisherStats& stats = streamer.stats();
   const double median_ms = apps::Percentile(streamer.publish_ms(), 50);
   const double frame_ms = apps::Percentile(total_ms, 50);
+  const auto us = [](double ms) { return apps::FormatFixed(1000.0 * ms, 1); };
   std::cout << "lcm:         " << stats.messages << " messages (" << stats.bytes / 1024
-            << " KiB) to " << streamer.Describe() << "; publishing per frame median "
-            << apps::FormatFixed(1000.0 * median_ms, 1) << " us, p95 "
-            << apps::FormatFixed(1000.0 * apps::Percentile(streamer.publish_ms(), 95), 1) << " us ("
+            << " KiB) to " << streamer.Describe() << "\n             publishing per frame: "
+            << "median " << us(median_ms) << " us, p95 "
+            << us(apps::Percentile(streamer.publish_ms(), 95)) << " us wall ("
             << apps::FormatFixed(100.0 * median_ms / frame_ms, 2)
-            << " % of the median frame time)\n";
+            << " % of the median frame time); CPU median "
+            << us(apps::Percentile(streamer.publish_cpu_ms(), 50)) << " us, p95 "
+            << us(apps::Percentile(streamer.publish_cpu_ms(), 95)) << " us\n";
   if (stats.failures > 0) {
     std::cerr << "dfo_run: warning: " << stats.failures
               << " LCM publications failed; first: " << stats.first_error << "\n";

@@ -6,6 +6,9 @@ BUILD_DIR=${1:-build}
 OUT_DIR=${2:-out/demo}
 SEED=${DFO_DEMO_SEED:-1}
 FRAMES=${DFO_DEMO_FRAMES:-500}
+# DFO_DEMO_LCM_LIVE=1 also publishes the run live over LCM (lcm.enable; watch it with
+# dfo_lcm_listen in another terminal). The LCM event log is written either way.
+LCM_LIVE=${DFO_DEMO_LCM_LIVE:-0}
 
 SYNTH="$BUILD_DIR/apps/dfo_synth"
 if [ ! -x "$SYNTH" ]; then
@@ -27,7 +30,12 @@ echo
 echo "== dfo demo: frontend (hand-made features, ground-truth depth), keyframes, sliding-window BA =="
 echo "   (run.mode both: the frontend-only and the windowed trajectory from the same frontend pass)"
 CONFIG="$(cd "$(dirname "$0")/.." && pwd)/configs/demo.yaml"
-"$RUN" --config "$CONFIG" --set dataset.path="$OUT_DIR/synthetic" --output "$OUT_DIR/run"
+LCM_LOG="$OUT_DIR/run/dfo_run.lcmlog"
+mkdir -p "$OUT_DIR/run"
+LCM_ARGS=(--set lcm.log_path="$LCM_LOG")
+if [ "$LCM_LIVE" = 1 ]; then LCM_ARGS+=(--set lcm.enable=true); fi
+"$RUN" --config "$CONFIG" --set dataset.path="$OUT_DIR/synthetic" --output "$OUT_DIR/run" \
+  "${LCM_ARGS[@]}"
 
 # A few figures from summary.json (pretty-printed: one key per line).
 SUMMARY="$OUT_DIR/run/summary.json"
@@ -61,3 +69,9 @@ echo "estimated poses:          $OUT_DIR/run/frontend_kitti.txt (frontend-only),
 echo "summary:                  $SUMMARY"
 echo "pictures:                 $OUT_DIR/synthetic_preview.png (sequence), $OUT_DIR/run/comparison_trajectory.png (both vs ground truth),"
 echo "                          $OUT_DIR/run/frontend_trajectory.png, $OUT_DIR/run/windowed_trajectory.png (coloured by ATE)"
+echo "LCM event log:            $LCM_LOG (every frame's poses, keyframe updates, status, stop)"
+echo "                          read it:  $BUILD_DIR/apps/dfo_lcm_listen --log $LCM_LOG --tum $OUT_DIR/from_log_tum.txt"
+echo "watch a run live over LCM (two terminals; README, \"Streaming poses over LCM\"):"
+echo "  terminal 1:  $BUILD_DIR/apps/dfo_lcm_listen --tum $OUT_DIR/live_tum.txt"
+echo "  terminal 2:  $BUILD_DIR/apps/dfo_run --config configs/demo.yaml --set dataset.path=$OUT_DIR/synthetic --output $OUT_DIR/run_live --set lcm.enable=true"
+echo "               (or replay the demo's log: lcm-logplayer $LCM_LOG; or DFO_DEMO_LCM_LIVE=1 make demo)"

@@ -1,8 +1,20 @@
 #include "apps/common/lcm_streaming.h"
 
+#include <ctime>
+
 #include "dfo_core/error.h"
 
 namespace dfo::apps {
+namespace {
+
+// CPU time of the calling thread, milliseconds.
+double ThreadCpuMs() {
+  timespec ts{};
+  clock_gettime(CLOCK_THREAD_CPUTIME_ID, &ts);
+  return 1e3 * static_cast<double>(ts.tv_sec) + 1e-6 * static_cast<double>(ts.tv_nsec);
+}
+
+}  // namespace
 
 LcmStreamOptions LcmStreamOptionsFromConfig(const io::Config& config) {
   LcmStreamOptions o;
@@ -60,6 +72,7 @@ void LcmRunStreamer::PublishStatus(const SequenceRunResult& result) {
 
 void LcmRunStreamer::OnFrame(const FrameRecord& frame, const SequenceRunResult& result) {
   const auto begin = std::chrono::steady_clock::now();
+  const double cpu_begin_ms = ThreadCpuMs();
   if (!started_) {
     // The run started when the first frame started loading.
     start_ = begin - std::chrono::duration_cast<std::chrono::steady_clock::duration>(
@@ -113,6 +126,7 @@ void LcmRunStreamer::OnFrame(const FrameRecord& frame, const SequenceRunResult& 
   PublishStatus(result);
   publish_ms_.push_back(
       std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - begin).count());
+  publish_cpu_ms_.push_back(ThreadCpuMs() - cpu_begin_ms);
 }
 
 void LcmRunStreamer::Finish(const SequenceRunResult& result) {

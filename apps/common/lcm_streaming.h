@@ -63,8 +63,11 @@ class LcmRunStreamer {
   // After the run: the final status and the stop message (reason "finished", or the run's error).
   void Finish(const SequenceRunResult& result);
 
-  // Wall time of each OnFrame call in milliseconds (the publishing overhead per frame).
+  // Wall time of each OnFrame call in milliseconds (the publishing overhead per frame, including
+  // any time the thread was descheduled, e.g. while a listener on the same cores ran).
   const std::vector<double>& publish_ms() const { return publish_ms_; }
+  // CPU time of the calling thread in each OnFrame call, milliseconds (the publishing work).
+  const std::vector<double>& publish_cpu_ms() const { return publish_cpu_ms_; }
   const io::LcmPublisherStats& stats() const { return publisher_.stats(); }
   const LcmStreamOptions& options() const { return options_; }
   // "udpm://... and the log out/x.lcmlog", for messages.
@@ -78,6 +81,7 @@ class LcmRunStreamer {
   io::LcmPublisher publisher_;
   std::unordered_map<int, int64_t> timestamps_ns_;  // frame index -> timestamp, for batches
   std::vector<double> publish_ms_;
+  std::vector<double> publish_cpu_ms_;
   std::chrono::steady_clock::time_point start_;
   bool started_ = false;
   int lost_ = 0;
