@@ -140,6 +140,25 @@ TEST_F(DiffGnTest, GradientFlowsToFeaturesAndDepthAndRespectsScaleEquivariance) 
   EXPECT_GT(g.abs().sum().item<double>(), 0.0);
 }
 
+TEST_F(DiffGnTest, SingularSystemStopsTheLevelInsteadOfThrowing) {
+  // Features that vary along x only: every Jacobian's v row is zero, so the 6 x 6 system is
+  // exactly singular (torch::linalg::solve throws where the tracker's LDLT returns a non-finite
+  // step; a training run stopped on it).
+  TrackerOptions options;
+  AlignmentView ref = ToTensors(*views_[0], options.num_levels);
+  AlignmentView cur = ToTensors(*views_[1], options.num_levels);
+  for (AlignmentView* view : {&ref, &cur}) {
+    for (torch::Tensor& f : view->features) {
+      const torch::Tensor x = torch::arange(f.size(2), torch::kFloat32).view({1, 1, -1});
+      const torch::Tensor c = torch::arange(f.size(0), torch::kFloat32).view({-1, 1, 1});
+      f = torch::sin(0.7 * x + c + (view == &cur ? 0.3 : 0.0)).expand(f.sizes()).contiguous();
+    }
+  }
+  DiffGnResult result;
+  EXPECT_NO_THROW(result = DifferentiableAlign(ref, cur, PoseTensor::FromSE3(SE3d()), options));
+  EXPECT_TRUE(torch::isfinite(result.cur_from_ref.translation).all().item<bool>());
+}
+
 TEST_F(DiffGnTest, TooFewLevelsIsAnInputError) {
   TrackerOptions options;
   const AlignmentView ref = ToTensors(*views_[0], 2);

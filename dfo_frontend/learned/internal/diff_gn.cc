@@ -324,8 +324,15 @@ DiffGnLevelStats AlignLevel(const LevelData& lv, const torch::Tensor& cur, const
     const torch::Tensor hess = (lv.hessians.index_select(0, idx) * wts.view({-1, 1, 1})).sum(0);
     const torch::Tensor grad = (ev.gradient.index_select(0, idx) * wts.view({-1, 1})).sum(0);
     // Gauss-Newton step of min |r + J delta|^2; the tracker's T <- T Exp(delta)^-1.
-    const torch::Tensor delta =
-        -torch::linalg::solve(hess, grad.unsqueeze(1), /*left=*/true).squeeze(1);
+    torch::Tensor delta;
+    try {
+      delta = -torch::linalg::solve(hess, grad.unsqueeze(1), /*left=*/true).squeeze(1);
+    } catch (const c10::Error&) {
+      // A singular system (e.g. feature channels that are constant over the patches: zero
+      // Jacobians) throws in torch where the tracker's LDLT gives a non-finite step: stop the
+      // level as the tracker does (measured: it stopped a training run on its first step).
+      break;
+    }
     const torch::Tensor delta_detached = delta.detach();
     if (!torch::isfinite(delta_detached).all().item<bool>()) break;
     current = current.Compose(ExpSE3(-delta));
