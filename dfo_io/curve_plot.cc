@@ -258,7 +258,9 @@ void WriteScatterPlot(const std::string& path, const std::vector<ScatterSeries>&
   options.Check();
   const int note_height = 17;
   PlotAxes axes(options.width, options.height, options.log_y, !options.title.empty(),
-                note_height * static_cast<int>(options.notes.size()));
+                options.notes.empty()
+                    ? 0
+                    : note_height * static_cast<int>(options.notes.size()) + 8);
   if (axes.Ph() < 100) {
     throw ConfigError("scatter plot height = " + std::to_string(options.height) + " leaves " +
                       std::to_string(axes.Ph()) + " pixels for the plot under " +
