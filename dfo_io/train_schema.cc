@@ -51,7 +51,7 @@ ConfigSchema BuildTrainSchema() {
       .Max(1);
   s.AddDouble("loss.dssim_clamp", 0.15, "Robust clamp eps on DSSIM/2").GreaterThan(0);
   s.AddDouble("loss.l1_clamp", 0.3, "Robust clamp eps on L1").GreaterThan(0);
-  s.AddDouble("loss.smooth_weight", 0.1, "lambda_sm (level l weighted lambda_sm / 2^l)").Min(0);
+  s.AddDouble("loss.smooth_weight", 0.001, "lambda_sm (level l weighted lambda_sm / 2^l)").Min(0);
   s.AddDouble("loss.sparsity_weight", 0.01, "lambda_sp (KL of the masks toward network.rho)")
       .Min(0);
   s.AddDouble("loss.ae_weight", 0.01, "lambda_ae (autoencoder reconstruction in the joint stage)")
@@ -81,12 +81,12 @@ ConfigSchema BuildTrainSchema() {
 
   s.AddSection("gn", "Differentiable Gauss-Newton alignment giving the training poses.");
   s.AddInt("gn.max_points", 300, "Most patches per level (tracker.max_points)").Min(1);
-  s.AddIntList("gn.max_iterations", {3, 3, 4, 5},
+  s.AddIntList("gn.max_iterations", {6, 6, 8, 10},
                "Unrolled iterations per level, finest first (last repeats)")
       .Min(1);
   s.AddDouble("gn.min_gradient", 0.05, "Smallest feature gradient of a selected point").Min(0);
   s.AddBool("gn.outlier_rule", true, "Apply the paper's 0.5 (median + max) outlier rule");
-  s.AddBool("gn.use_masks", true,
+  s.AddBool("gn.use_masks", false,
             "Weight the alignment's patches by the target's soft masks (selection stays the "
             "tracker's gradient rule)");
   s.AddBool("gn.source_feature_grad", false,
