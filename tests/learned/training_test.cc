@@ -126,6 +126,26 @@ TEST_F(TrainingTest, FewStepsLowerTheLoss) {
   EXPECT_GT(gn_ok, 0) << "the differentiable alignment never succeeded";
 }
 
+TEST_F(TrainingTest, NonFiniteGradientSkipsTheUpdate) {
+  Trainer trainer(TinyOptions(), {*data_});
+  std::vector<torch::Tensor> before;
+  for (const torch::Tensor& p : trainer.networks()->parameters()) {
+    before.push_back(p.detach().clone());
+    p.mutable_grad() = torch::ones_like(p);
+  }
+  torch::Tensor first = trainer.networks()->parameters()[0];
+  first.mutable_grad() = torch::full_like(first, NAN);
+  trainer.ClippedStep(0);
+  EXPECT_EQ(trainer.skipped_updates(), 1);
+  const std::vector<torch::Tensor> after = trainer.networks()->parameters();
+  for (size_t i = 0; i < after.size(); ++i) EXPECT_TRUE(torch::equal(after[i], before[i])) << i;
+  // A finite gradient updates.
+  for (const torch::Tensor& p : after) p.mutable_grad() = torch::ones_like(p);
+  trainer.ClippedStep(1);
+  EXPECT_EQ(trainer.skipped_updates(), 1);
+  EXPECT_FALSE(torch::equal(trainer.networks()->parameters()[0], before[0]));
+}
+
 TEST_F(TrainingTest, ResumeContinuesExactlyWhereTheRunStopped) {
   const std::string dir = test::MakeTempDir("train_resume");
   const std::string checkpoint = dir + "/checkpoint.pt";

@@ -253,6 +253,23 @@ Trainer::Trainer(const TrainingOptions& options, std::vector<TrainingSequence> d
 
 Trainer::~Trainer() = default;
 
+void Trainer::ClippedStep(int iteration) {
+  const double norm =
+      torch::nn::utils::clip_grad_norm_(networks_->parameters(), options_.max_grad_norm);
+  if (!std::isfinite(norm)) {
+    // A non-finite gradient (the unrolled GN through a near-singular system can overflow) would
+    // turn every weight into NaN through Adam; skip this update instead (measured: with mask
+    // weights the run ended with a NaN loss at iteration 611).
+    optimizer_->zero_grad();
+    ++skipped_updates_;
+    std::fprintf(stderr,
+                 "dfo_train: iteration %d: non-finite gradient, update skipped (%d so far)\n",
+                 iteration + 1, skipped_updates_);
+    return;
+  }
+  optimizer_->step();
+}
+
 double Trainer::LearningRateAt(int iteration) const {
   const double progress =
       std::clamp(static_cast<double>(iteration) / std::max(1, options_.iterations), 0.0, 1.0);
@@ -374,8 +391,7 @@ StepRecord Trainer::AeStep(const Batch& batch) {
   const torch::Tensor total = reconstruction + options_.loss.sparsity_weight * sparsity;
   optimizer_->zero_grad();
   total.backward();
-  torch::nn::utils::clip_grad_norm_(networks_->parameters(), options_.max_grad_norm);
-  optimizer_->step();
+  ClippedStep(iteration_);
   rec.total = total.item<double>();
   rec.reconstruction = reconstruction.item<double>();
   rec.sparsity = sparsity.item<double>();
@@ -527,8 +543,7 @@ StepRecord Trainer::JointStep(const Batch& batch, int iteration) {
   optimizer_->zero_grad();
   const auto t3 = Clock::now();
   total.backward();
-  torch::nn::utils::clip_grad_norm_(networks_->parameters(), options_.max_grad_norm);
-  optimizer_->step();
+  ClippedStep(iteration_);
   const auto t4 = Clock::now();
   if (std::getenv("DFO_TRAIN_PROFILE") != nullptr) {
     auto ms = [](Clock::time_point a, Clock::time_point b) {

@@ -189,6 +189,12 @@ class Trainer {
   // iteration 0).
   void LoadWeights(const std::string& path);
 
+  // Clips the gradients' norm and steps Adam on them, or, when the norm is not finite, drops them
+  // and skips the update (weights and Adam state unchanged; a message on stderr). `iteration`
+  // (0-based) is for the message. Step() calls it; public for tests.
+  void ClippedStep(int iteration);
+  int skipped_updates() const { return skipped_updates_; }
+
   int iteration() const { return iteration_; }
   const std::vector<StepRecord>& history() const { return history_; }
   const std::vector<Snippet>& snippets() const { return snippets_; }
@@ -228,6 +234,7 @@ class Trainer {
   std::unique_ptr<torch::optim::Adam> optimizer_;
   int iteration_ = 0;
   std::vector<StepRecord> history_;
+  int skipped_updates_ = 0;  // updates skipped for a non-finite gradient (this process)
 };
 
 // The view-synthesis (appearance) loss of the joint stage: per level l (images average-pooled
