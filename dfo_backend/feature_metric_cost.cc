@@ -1,5 +1,6 @@
 #include "dfo_backend/feature_metric_cost.h"
 
+#include <algorithm>
 #include <cmath>
 
 #include "dfo_backend/pose_manifold.h"
@@ -26,6 +27,35 @@ std::vector<double> SampleHostPatch(const FeatureLevel& level, int x, int y, int
     }
   }
   return patch;
+}
+
+bool SampleHostPatchBilinear(const FeatureLevel& level, const Eigen::Vector2d& uv, int patch_size,
+                             std::vector<double>* patch) {
+  DFO_CHECK(patch_size >= 1 && patch_size % 2 == 1) << "patch_size " << patch_size;
+  const int radius = patch_size / 2;
+  const int w = level.width, h = level.height;
+  if (!(uv.x() - radius >= 0.0 && uv.y() - radius >= 0.0 && uv.x() + radius <= w - 1.0 &&
+        uv.y() + radius <= h - 1.0)) {
+    return false;
+  }
+  const int kk = patch_size * patch_size;
+  patch->assign(static_cast<size_t>(level.channels) * kk, 0.0);
+  const size_t plane = static_cast<size_t>(w) * h;
+  for (int dy = -radius; dy <= radius; ++dy) {
+    for (int dx = -radius; dx <= radius; ++dx) {
+      const double x = uv.x() + dx, y = uv.y() + dy;
+      const int x0 = std::min(static_cast<int>(std::floor(x)), w - 2);
+      const int y0 = std::min(static_cast<int>(std::floor(y)), h - 2);
+      const double ax = x - x0, ay = y - y0;
+      const int k = (dy + radius) * patch_size + (dx + radius);
+      for (int c = 0; c < level.channels; ++c) {
+        const float* f = level.data.data() + c * plane + static_cast<size_t>(y0) * w + x0;
+        (*patch)[static_cast<size_t>(c) * kk + k] =
+            (1.0 - ay) * ((1.0 - ax) * f[0] + ax * f[1]) + ay * ((1.0 - ax) * f[w] + ax * f[w + 1]);
+      }
+    }
+  }
+  return true;
 }
 
 FeatureMetricCost::FeatureMetricCost(const FeatureLevel* target, const PinholeCamera& host_camera,

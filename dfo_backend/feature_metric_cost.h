@@ -46,6 +46,12 @@ using RowMajorMatrixXd = Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, E
 // above (channel-major). The patch must lie inside the level (checked, InternalError).
 std::vector<double> SampleHostPatch(const FeatureLevel& level, int x, int y, int patch_size);
 
+// The same patch centred on a continuous pixel (u, v), bilinearly interpolated (the host patch of
+// a point on a coarser level than the one it was selected on). Returns false, leaving *patch
+// untouched, when a patch pixel falls outside [0, width - 1] x [0, height - 1].
+bool SampleHostPatchBilinear(const FeatureLevel& level, const Eigen::Vector2d& uv, int patch_size,
+                             std::vector<double>* patch);
+
 // Residual block of one point (hosted in h) into one target keyframe t. Parameter blocks:
 // host pose (7, dfo_backend/pose_manifold.h), target pose (7), inverse depth (1). Residuals:
 // C * K * K. Does not own the target level: it must outlive the cost (the window keeps it).

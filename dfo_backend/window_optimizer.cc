@@ -101,6 +101,7 @@ void WindowOptions::Check() const {
   Require(points_per_keyframe >= 1 && points_per_keyframe <= 100000, "window.points_per_keyframe",
           points_per_keyframe, "in [1, 100000]");
   Require(loss == "huber" || loss == "cauchy", "window.loss", loss, "one of {huber, cauchy}");
+  Require(coarse_iterations >= 0, "window.coarse_iterations", coarse_iterations, ">= 0");
   Require(std::isfinite(loss_scale) && loss_scale > 0.0, "window.loss_scale", loss_scale, "> 0");
   Require(linear_solver == "sparse_schur" || linear_solver == "dense_schur", "window.linear_solver",
           linear_solver, "one of {sparse_schur, dense_schur}");
@@ -135,6 +136,7 @@ struct WindowOptimizer::KeyframeState {
   double pose[kPoseAmbientSize];  // world_from_cam, pose_manifold.h layout
   SE3d frontend_pose;             // chained frontend measurement (relative pose prior)
   FeatureLevel level;             // features at the BA level
+  FeatureLevel coarse;            // features at the BA level + 1 (coarse_iterations > 0)
   ImageF depth;                   // depth at the BA level (m, 0 invalid)
   int num_selected = 0;           // points selected when it entered
 };
@@ -145,6 +147,9 @@ struct WindowOptimizer::PointState {
   double inverse_depth = 0.0;
   double prior_inverse_depth = 0.0;  // from the keyframe's depth
   std::shared_ptr<const std::vector<double>> patch;
+  // Host patch on the coarse level, centred where (x, y) lands there; null when coarse solves are
+  // off or the patch leaves the coarse level (the point then sits the warm-up out).
+  std::shared_ptr<const std::vector<double>> coarse_patch;
   std::map<int, std::unique_ptr<FeatureMetricCost>> residuals;  // by target keyframe id
 };
 
@@ -196,6 +201,14 @@ WindowOptimizer::KeyframeState* WindowOptimizer::FindKeyframe(int id) const {
 // cell the pixel with the largest squared feature gradient (summed over channels, central
 // differences) among the allowed ones (mask, valid depth, patch inside) is a candidate; the
 // strongest candidates are kept. Spreads points over the image as DSO's block-wise selection.
+namespace {
+
+// Where pixel (x, y) of a level lands on the next coarser one (2 x 2 averaging: DESIGN of
+// PinholeCamera::PyramidLevel).
+Eigen::Vector2d CoarsePixel(int x, int y) { return {(x + 0.5) * 0.5 - 0.5, (y + 0.5) * 0.5 - 0.5}; }
+
+}  // namespace
+
 void WindowOptimizer::SelectPoints(KeyframeState* kf) {
   const FeatureLevel& f = kf->level;
   const int w = f.width, h = f.height;
@@ -249,6 +262,13 @@ void WindowOptimizer::SelectPoints(KeyframeState* kf) {
     p->prior_inverse_depth = p->inverse_depth;
     p->patch = std::make_shared<const std::vector<double>>(
         SampleHostPatch(f, c.x, c.y, options_.patch_size));
+    if (options_.coarse_iterations > 0) {
+      std::vector<double> coarse_patch;
+      if (SampleHostPatchBilinear(kf->coarse, CoarsePixel(c.x, c.y), options_.patch_size,
+                                  &coarse_patch)) {
+        p->coarse_patch = std::make_shared<const std::vector<double>>(std::move(coarse_patch));
+      }
+    }
     points_.push_back(std::move(p));
   }
   kf->num_selected = static_cast<int>(chosen.size());
@@ -289,7 +309,7 @@ void WindowOptimizer::RemovePointsWithoutResiduals() {
 }
 
 bool WindowOptimizer::Solve(int max_iterations, double* initial_cost, double* final_cost,
-                            std::string* why) {
+                            std::string* why, bool coarse) {
   // Ceres solves on copies laid out contiguously in window order (poses oldest first, then the
   // inverse depths in point order), copied back only when the solve succeeded. Ceres's
   // ParameterBlockOrdering keeps each elimination group as a set of addresses, so the order in
@@ -322,17 +342,34 @@ bool WindowOptimizer::Solve(int max_iterations, double* initial_cost, double* fi
     ordering->AddElementToGroup(block, 1);
   }
   problem.SetParameterBlockConstant(pose_buffer.data());  // gauge: the oldest keyframe
+  // The coarse warm-up only brings the newest keyframe (and the points it hosts) into the basin
+  // of the fine solve: the rest of the window is converged already, and letting the coarse
+  // level's biased optimum move it every keyframe makes the window drift (measured).
+  if (coarse) {
+    for (size_t i = 1; i + 1 < num_kf; ++i) {
+      problem.SetParameterBlockConstant(pose_buffer.data() + i * kPoseAmbientSize);
+    }
+  }
   int num_blocks = 0;
   for (size_t i = 0; i < points_.size(); ++i) {
     PointState* p = points_[i].get();
-    if (p->residuals.empty()) continue;
+    if (p->residuals.empty() || (coarse && p->coarse_patch == nullptr)) continue;
     double* depth = &depth_buffer[i];
     for (auto& [target_id, cost] : p->residuals) {
-      problem.AddResidualBlock(cost.get(), loss_.get(), pose_of.at(p->host_id),
+      ceres::CostFunction* block_cost = cost.get();
+      if (coarse) {
+        const KeyframeState* host = FindKeyframe(p->host_id);
+        owned_costs.push_back(std::make_unique<FeatureMetricCost>(
+            &FindKeyframe(target_id)->coarse, host->coarse.camera, CoarsePixel(p->x, p->y),
+            options_.patch_size, p->coarse_patch));
+        block_cost = owned_costs.back().get();
+      }
+      problem.AddResidualBlock(block_cost, loss_.get(), pose_of.at(p->host_id),
                                pose_of.at(target_id), depth);
       ++num_blocks;
     }
     ordering->AddElementToGroup(depth, 0);
+    if (coarse && p->host_id != keyframes_.back()->id) problem.SetParameterBlockConstant(depth);
     if (options_.depth_prior_weight > 0.0) {
       owned_costs.push_back(std::make_unique<InverseDepthPriorCost>(p->prior_inverse_depth,
                                                                     options_.depth_prior_weight));
@@ -449,6 +486,11 @@ WindowResult WindowOptimizer::AddKeyframe(KeyframeData data) {
                 " levels; window.pyramid_level = " + std::to_string(level) + " needs " +
                 std::to_string(level + 1));
   }
+  if (options_.coarse_iterations > 0 && data.features.num_levels() <= level + 1) {
+    input_error("feature pyramid has " + std::to_string(data.features.num_levels()) +
+                " levels; window.coarse_iterations > 0 with window.pyramid_level = " +
+                std::to_string(level) + " needs " + std::to_string(level + 2));
+  }
   if (data.depth.num_levels() <= level) {
     input_error("depth pyramid has " + std::to_string(data.depth.num_levels()) +
                 " levels; window.pyramid_level = " + std::to_string(level) + " needs " +
@@ -473,6 +515,19 @@ WindowResult WindowOptimizer::AddKeyframe(KeyframeData data) {
   if (f.has_mask() && f.mask.size() != static_cast<size_t>(f.width) * f.height) {
     input_error("mask has " + std::to_string(f.mask.size()) + " values; expected " +
                 std::to_string(f.width * f.height));
+  }
+  if (options_.coarse_iterations > 0) {
+    const FeatureLevel& c = data.features.levels[level + 1];
+    if (c.channels != f.channels ||
+        c.data.size() != static_cast<size_t>(c.width) * c.height * c.channels ||
+        c.width < options_.patch_size + 1 || c.height < options_.patch_size + 1) {
+      std::ostringstream msg;
+      msg << "feature level " << level + 1 << " (window.coarse_iterations) is " << c.width << "x"
+          << c.height << "x" << c.channels << " with " << c.data.size()
+          << " values; expected a consistent planar map with the " << f.channels
+          << " channels of level " << level;
+      input_error(msg.str());
+    }
   }
   if (channels_ != 0 && f.channels != channels_) {
     input_error("features have " + std::to_string(f.channels) + " channels; the window's have " +
@@ -531,6 +586,7 @@ WindowResult WindowOptimizer::AddKeyframe(KeyframeData data) {
     kf->frontend_pose = newest.frontend_pose *
                         (PoseFromParameters(newest.pose).Inverse() * data.world_from_cam);
   }
+  if (options_.coarse_iterations > 0) kf->coarse = std::move(data.features.levels[level + 1]);
   kf->level = std::move(f);
   kf->depth = d;
   KeyframeState* new_kf = kf.get();
@@ -545,6 +601,12 @@ WindowResult WindowOptimizer::AddKeyframe(KeyframeData data) {
   } else {
     double c0 = 0.0, c1 = 0.0;
     std::string why;
+    // The warm-up's failure is not the window's: the solve at pyramid_level starts from where
+    // it left the state (untouched when it failed) and decides.
+    if (options_.coarse_iterations > 0) {
+      std::string coarse_why;
+      Solve(options_.coarse_iterations, &c0, &c1, &coarse_why, /*coarse=*/true);
+    }
     if (Solve(options_.max_iterations, &c0, &c1, &why)) {
       result.optimized = true;
       result.initial_cost = c0;

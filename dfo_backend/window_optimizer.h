@@ -56,7 +56,13 @@ struct WindowOptions {
   int max_keyframes = 7;
   // Pyramid level of the feature and depth maps the BA works on (0 = finest); >= 0 and less than
   // the number of levels of every keyframe.
-  int pyramid_level = 1;
+  int pyramid_level = 0;
+  // Levenberg-Marquardt iterations of a warm-up solve on the next coarser level
+  // (pyramid_level + 1) before each keyframe's solve, in which only the newest keyframe's pose
+  // and the inverse depths of its points move; 0 = none; >= 0. Coarser gradients reach further
+  // (a wider basin for a new keyframe the frontend got less right); the solve at pyramid_level
+  // that follows removes the coarse level's bias. Needs keyframes with that level.
+  int coarse_iterations = 3;
   // Side K of the square feature patch per point, pixels at pyramid_level; odd, in [1, 9].
   int patch_size = 3;
   // Points selected per keyframe; in [1, 100000].
@@ -181,7 +187,9 @@ class WindowOptimizer {
   void SelectPoints(KeyframeState* keyframe);
   void ConnectNewKeyframe(KeyframeState* keyframe);
   // One Ceres solve over the current state; false with *why on failure (state untouched then).
-  bool Solve(int max_iterations, double* initial_cost, double* final_cost, std::string* why);
+  // coarse: on pyramid_level + 1 (the warm-up), with blocks for the same (point, target) pairs.
+  bool Solve(int max_iterations, double* initial_cost, double* final_cost, std::string* why,
+             bool coarse = false);
   int GateOutliers();
   int ChooseKeyframeToMarginalize() const;
   void MarginalizeKeyframe(int position, WindowResult* result);

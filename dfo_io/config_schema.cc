@@ -206,9 +206,13 @@ ConfigSchema BuildSchema() {
                "Sliding window of keyframes with feature-metric bundle adjustment (Ceres): "
                "points, patches, loss, solver.");
   s.AddInt("window.max_keyframes", 7, "Keyframes kept in the window (DSO: 5-7)").Min(5);
-  s.AddInt("window.pyramid_level", 1,
-           "Pyramid level of the feature and depth maps the BA works on (0 = finest); below "
-           "tracker.num_levels")
+  s.AddInt("window.pyramid_level", 0,
+           "Pyramid level of the feature and depth maps the BA works on (0 = finest; coarser "
+           "levels measured biased: windows drift); below tracker.num_levels")
+      .Min(0);
+  s.AddInt("window.coarse_iterations", 3,
+           "Levenberg-Marquardt iterations of a warm-up solve on pyramid_level + 1 before each "
+           "keyframe's solve (wider basin; the solve at pyramid_level removes its bias); 0 = none")
       .Min(0);
   s.AddInt("window.patch_size", 3, "Patch side K in pixels at that level (K x K), odd")
       .Min(1)

@@ -44,6 +44,7 @@ WindowOptions WindowOptionsFromConfig(const io::Config& config) {
   WindowOptions o;
   o.max_keyframes = config.GetInt("window.max_keyframes");
   o.pyramid_level = config.GetInt("window.pyramid_level");
+  o.coarse_iterations = config.GetInt("window.coarse_iterations");
   o.patch_size = config.GetInt("window.patch_size");
   o.points_per_keyframe = config.GetInt("window.points_per_keyframe");
   o.loss = config.GetString("window.loss");

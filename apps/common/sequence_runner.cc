@@ -86,6 +86,14 @@ class KeyframePipeline {
                           " violates < tracker.num_levels (" +
                           std::to_string(frontend->options().tracker.num_levels) + ")");
       }
+      if (options.window.coarse_iterations > 0 &&
+          options.window.pyramid_level + 1 >= frontend->options().tracker.num_levels) {
+        throw ConfigError("window.coarse_iterations = " +
+                          std::to_string(options.window.coarse_iterations) +
+                          " needs window.pyramid_level + 1 < tracker.num_levels (" +
+                          std::to_string(frontend->options().tracker.num_levels) +
+                          "); set window.coarse_iterations=0 or use more tracker levels");
+      }
       window_ = std::make_unique<WindowOptimizer>(options.window);
     }
   }

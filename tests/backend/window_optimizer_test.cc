@@ -6,6 +6,7 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <cstdio>
 #include <limits>
 #include <random>
 
@@ -41,12 +42,13 @@ struct PoseErrors {
 // Errors after the one gauge freedom a fixed first keyframe leaves in monocular BA, the scale:
 // camera centres are scaled about the first keyframe's (at ground truth) by the least-squares
 // factor, returned in *scale.
-PoseErrors Errors(const std::vector<std::pair<int, SE3d>>& poses, double* scale = nullptr) {
+PoseErrors Errors(const std::vector<std::pair<int, SE3d>>& poses, double* scale = nullptr,
+                  const SyntheticSequence& sequence = Sequence()) {
   const Eigen::Vector3d origin = poses.front().second.translation();
   double num = 0.0, den = 0.0;
   for (const auto& [index, pose] : poses) {
     const Eigen::Vector3d est = pose.translation() - origin;
-    const Eigen::Vector3d gt = Sequence().WorldFromCam(index).translation() - origin;
+    const Eigen::Vector3d gt = sequence.WorldFromCam(index).translation() - origin;
     num += gt.dot(est);
     den += est.squaredNorm();
   }
@@ -56,7 +58,7 @@ PoseErrors Errors(const std::vector<std::pair<int, SE3d>>& poses, double* scale 
   for (const auto& [index, pose] : poses) {
     SE3d scaled = pose;
     scaled.translation() = origin + s * (pose.translation() - origin);
-    const SE3d err = Sequence().WorldFromCam(index).Inverse() * scaled;
+    const SE3d err = sequence.WorldFromCam(index).Inverse() * scaled;
     e.max_trans_m = std::max(e.max_trans_m, err.translation().norm());
     e.max_rot_deg = std::max(e.max_rot_deg, err.so3().Angle() * 180.0 / M_PI);
   }
@@ -68,6 +70,9 @@ WindowOptions TestOptions() {
   options.num_threads = 1;  // deterministic
   options.max_iterations = 30;
   options.max_solver_time_s = 60.0;
+  // Windows started far from the truth (the basin test below) need a longer warm-up than the
+  // few coarse iterations per keyframe a run needs.
+  options.coarse_iterations = 10;
   return options;
 }
 
@@ -101,6 +106,41 @@ TEST(WindowOptimizerTest, PerturbedPosesAndDepthsReturnToGroundTruth) {
   EXPECT_LT(after.max_trans_m, 0.03) << "before " << before.max_trans_m;
   EXPECT_LT(after.max_trans_m, 0.5 * before.max_trans_m);
   EXPECT_NEAR(scale_after, 1.0, 0.03);
+}
+
+// A full window started at ground truth must stay there while it slides through a turn between
+// facades with repetitive window grids (frames 90-180 of seed 1, keyframes 2.7-3.6 m apart, every
+// keyframe handed in at its true pose, exact depth): the solves may only move it by the feature-
+// metric optimum's own offset, never drift or collapse. Measured (after the scale, a free gauge
+// without a depth prior): the defaults (BA at level 0, coarse warm-up of the newest keyframe) end
+// within 0.25 m / 0.46 deg, scale off by 1%; without the warm-up 0.11 m / 0.43 deg but the scale
+// off by 9%; BA at level 1 drifted to 10.6 m / 2.3 deg (scale off by 30%), and a warm-up that
+// moved the whole window at level 1 to 13.9 m.
+TEST(WindowOptimizerTest, GroundTruthWindowStaysThroughATurn) {
+  SyntheticOptions sequence_options;
+  sequence_options.num_frames = 181;
+  sequence_options.seed = 1;
+  const SyntheticSequence sequence(sequence_options);
+  WindowOptions options = TestOptions();
+  options.max_iterations = 10;
+  WindowOptimizer window(options);
+  double worst_trans = 0.0, worst_rot = 0.0, worst_scale = 0.0;
+  for (int index = 90; index <= 180; index += 3) {
+    const WindowResult result =
+        window.AddKeyframe(test::MakeSyntheticKeyframe(sequence, index, options.pyramid_level + 2));
+    if (result.keyframe_poses.size() < 2) continue;
+    ASSERT_TRUE(result.optimized) << "keyframe " << index << ": " << result.message;
+    double scale = 1.0;
+    const PoseErrors e = Errors(result.keyframe_poses, &scale, sequence);
+    worst_trans = std::max(worst_trans, e.max_trans_m);
+    worst_rot = std::max(worst_rot, e.max_rot_deg);
+    worst_scale = std::max(worst_scale, std::abs(scale - 1.0));
+  }
+  EXPECT_LT(worst_trans, 0.4);
+  EXPECT_LT(worst_rot, 0.8);
+  EXPECT_LT(worst_scale, 0.15);
+  std::printf("worst window: %.4f m, %.4f deg, scale off by %.4f\n", worst_trans, worst_rot,
+              worst_scale);
 }
 
 TEST(WindowOptimizerTest, WindowStaysBoundedOverALongRunAndMarginalizes) {
@@ -187,7 +227,7 @@ TEST(WindowOptimizerTest, KeyframeWithNonFiniteFeaturesIsRejectedAndSaysWhy) {
   const auto before = window.KeyframePoses();
   const int points_before = window.num_points();
   KeyframeData bad = test::MakeSyntheticKeyframe(Sequence(), 6, 2);
-  bad.features.levels[1].data[7] = std::numeric_limits<float>::quiet_NaN();
+  bad.features.levels[TestOptions().pyramid_level].data[7] = std::numeric_limits<float>::quiet_NaN();
   const WindowResult result = window.AddKeyframe(std::move(bad));
   EXPECT_FALSE(result.optimized);
   EXPECT_NE(result.message.find("keyframe 6 rejected"), std::string::npos) << result.message;
@@ -269,12 +309,12 @@ TEST(WindowOptimizerTest, BadKeyframesAreRejectedWithTheFrameIndex) {
   }
   window.AddKeyframe(test::MakeSyntheticKeyframe(Sequence(), 0, 2));
   KeyframeData channels = test::MakeSyntheticKeyframe(Sequence(), 3, 2);
-  FeatureLevel& level = channels.features.levels[1];
+  FeatureLevel& level = channels.features.levels[TestOptions().pyramid_level];
   level.channels = 1;
   level.data.resize(static_cast<size_t>(level.width) * level.height);
   EXPECT_THROW(window.AddKeyframe(std::move(channels)), InputError);
   KeyframeData depth_size = test::MakeSyntheticKeyframe(Sequence(), 3, 2);
-  depth_size.depth.levels[1] = ImageF(5, 5);
+  depth_size.depth.levels[TestOptions().pyramid_level] = ImageF(5, 5);
   EXPECT_THROW(window.AddKeyframe(std::move(depth_size)), InputError);
   EXPECT_EQ(window.num_keyframes(), 1);
 }
