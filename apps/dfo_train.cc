@@ -140,6 +140,7 @@ learned::TrainingOptions OptionsFromConfig(const io::Config& c) {
   o.loss.ae_weight = c.GetDouble("loss.ae_weight");
   o.loss.depth_mean_m = c.GetDouble("loss.depth_mean_m");
   o.loss.depth_prior_weight = c.GetDouble("loss.depth_prior_weight");
+  o.loss.automask = c.GetBool("loss.automask");
   o.augment.enabled = c.GetBool("augment.enabled");
   o.augment.max_scale = c.GetDouble("augment.max_scale");
   o.augment.color_probability = c.GetDouble("augment.color_probability");

@@ -65,6 +65,9 @@ ConfigSchema BuildTrainSchema() {
        "loss.depth_prior_weight", 0.01,
        "Weight of log(raw geometric mean depth / depth_mean_m)^2 (keeps the scale metric-ish)")
       .Min(0);
+  s.AddBool("loss.automask", true,
+            "Monodepth2 auto-masking: the unwarped sources join the per-pixel minimum (pixels no "
+            "warp explains better than no motion stop pulling the depth to the ceiling)");
 
   s.AddSection("augment", "Augmentation, identical for the three frames of a snippet.");
   s.AddBool("augment.enabled", true, "Augment the training snippets");

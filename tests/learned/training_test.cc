@@ -300,6 +300,45 @@ TEST(ViewSynthesisTest, GroundTruthDepthAndPosesGiveTheLowestLoss) {
   }
 }
 
+// Auto-masking: the unwarped sources join the minimum, so the loss never exceeds the plain one
+// and pixels that no motion explains better (here: most pixels under an inverted pose) pass no
+// gradient to their depth.
+TEST(ViewSynthesisTest, AutomaskCapsTheLossAndStopsTheGradientWhereNoMotionWins) {
+  const SyntheticSequence sequence(Street208x64(8));
+  TrainingSequence seq;
+  seq.name = "synthetic seed 7";
+  seq.camera = sequence.camera();
+  for (int i = 5; i < 8; ++i) {
+    const SyntheticFrame f = sequence.RenderFrame(i);
+    seq.images.push_back(f.rgb);
+    seq.world_from_cam.push_back(f.world_from_cam);
+  }
+  TrainingOptions o = TinyOptions();
+  o.augment.enabled = false;
+  Trainer trainer(o, {seq});
+  const Trainer::Batch batch = trainer.MakeBatch(0);
+  torch::Tensor inv_r[2], inv_t[2];
+  for (int s = 0; s < 2; ++s) {
+    inv_r[s] = batch.gt_rotation[s].transpose(1, 2);
+    inv_t[s] = -torch::bmm(inv_r[s], batch.gt_translation[s].unsqueeze(2)).squeeze(2);
+  }
+  LossOptions plain, masked;
+  masked.automask = true;
+  int64_t moving[2];
+  double loss[2];
+  for (int k = 0; k < 2; ++k) {
+    const torch::Tensor depth = torch::full({1, 1, 64, 208}, 8.0).requires_grad_(true);
+    const torch::Tensor l =
+        ViewSynthesisLoss(batch, {depth}, inv_r, inv_t, k == 0 ? plain : masked);
+    l.backward();
+    loss[k] = l.item<double>();
+    moving[k] = (depth.grad().abs() > 0).sum().item<int64_t>();
+  }
+  EXPECT_LE(loss[1], loss[0]);
+  EXPECT_LT(moving[1], moving[0] / 2)
+      << "pixels with a depth gradient: plain " << moving[0] << ", automask " << moving[1];
+}
+
 TEST(ComparePosesTest, RotationAndDirectionAngles) {
   const SE3d truth(SO3d::Exp(Eigen::Vector3d(0.0, 0.1, 0.0)), Eigen::Vector3d(0.0, 0.0, 1.0));
   const PoseError same = ComparePoses(truth, truth);

@@ -134,6 +134,14 @@ torch::Tensor ViewSynthesisLoss(const Trainer::Batch& batch,
       // Invalid pixels (outside the source) lose the minimum to any valid one.
       maps.push_back(map + (1.0 - valid) * 1e3);
     }
+    if (options.automask) {
+      // The unwarped sources; + 1e-5 lets a warp win an exact tie (Monodepth2 adds noise).
+      for (int s = 0; s < 2; ++s) {
+        maps.push_back(
+            AppearanceMap(targets[l].contiguous(), sources[s][l].contiguous(), options).detach() +
+            1e-5);
+      }
+    }
     const torch::Tensor best = std::get<0>(torch::min(torch::cat(maps, 1), 1, true));
     const torch::Tensor valid_any = (best < 1e2).to(torch::kFloat32);
     appearance = appearance + (best * valid_any).sum() / valid_any.sum().clamp_min(1.0);
