@@ -210,9 +210,10 @@ ConfigSchema BuildSchema() {
            "Pyramid level of the feature and depth maps the BA works on (0 = finest; coarser "
            "levels measured biased: windows drift); below tracker.num_levels")
       .Min(0);
-  s.AddInt("window.coarse_iterations", 3,
-           "Levenberg-Marquardt iterations of a warm-up solve on pyramid_level + 1 before each "
-           "keyframe's solve (wider basin; the solve at pyramid_level removes its bias); 0 = none")
+  s.AddInt("window.coarse_iterations", 0,
+           "Levenberg-Marquardt iterations of a warm-up solve of the newest keyframe on "
+           "pyramid_level + 1 (a wider basin for poorly tracked keyframes; measured harmful with "
+           "well-tracked ones); 0 = none")
       .Min(0);
   s.AddInt("window.patch_size", 3, "Patch side K in pixels at that level (K x K), odd")
       .Min(1)

@@ -112,9 +112,9 @@ TEST(WindowOptimizerTest, PerturbedPosesAndDepthsReturnToGroundTruth) {
 // facades with repetitive window grids (frames 90-180 of seed 1, keyframes 2.7-3.6 m apart, every
 // keyframe handed in at its true pose, exact depth): the solves may only move it by the feature-
 // metric optimum's own offset, never drift or collapse. Measured (after the scale, a free gauge
-// without a depth prior): the defaults (BA at level 0, coarse warm-up of the newest keyframe) end
-// within 0.25 m / 0.46 deg, scale off by 1%; without the warm-up 0.11 m / 0.43 deg but the scale
-// off by 9%; BA at level 1 drifted to 10.6 m / 2.3 deg (scale off by 30%), and a warm-up that
+// without a depth prior): BA at level 0 with a 10-iteration coarse warm-up of the newest keyframe
+// (TestOptions) ends within 0.25 m / 0.46 deg, scale off by 1%; without the warm-up 0.11 m /
+// 0.43 deg but the scale off by 9%; BA at level 1 drifted to 10.6 m / 2.3 deg (scale off by 30%), and a warm-up that
 // moved the whole window at level 1 to 13.9 m.
 TEST(WindowOptimizerTest, GroundTruthWindowStaysThroughATurn) {
   SyntheticOptions sequence_options;
