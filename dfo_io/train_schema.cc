@@ -92,7 +92,7 @@ ConfigSchema BuildTrainSchema() {
   s.AddBool("gn.use_masks", false,
             "Weight the alignment's patches by the target's soft masks (selection stays the "
             "tracker's gradient rule)");
-  s.AddBool("gn.source_feature_grad", false,
+  s.AddBool("gn.source_feature_grad", true,
             "Backpropagate through the source views' feature network (slower)");
   s.AddBool("gn.pose_gradient", true,
             "Backpropagate the appearance loss through the alignment's pose (false: the pose is "
