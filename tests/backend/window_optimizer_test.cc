@@ -296,6 +296,30 @@ TEST(WindowOptimizerTest, SparseAndDenseSchurAgree) {
   }
 }
 
+// A solve that cannot run (here: a keyframe turned away from everything the window saw, so no
+// residual block exists) reports why and leaves the poses as they were; the run goes on and the
+// next keyframe that sees the window is optimised.
+TEST(WindowOptimizerTest, FailedSolveKeepsTheStateAndSaysWhy) {
+  WindowOptimizer window(TestOptions());
+  window.AddKeyframe(test::MakeSyntheticKeyframe(Sequence(), 0, 3));
+  KeyframeData away = test::MakeSyntheticKeyframe(Sequence(), 3, 3);
+  const SE3d turned = away.world_from_cam * SE3d(SO3d::Exp(Eigen::Vector3d(0.0, M_PI, 0.0)),
+                                                 Eigen::Vector3d::Zero());
+  away.world_from_cam = turned;
+  const WindowResult result = window.AddKeyframe(std::move(away));
+  EXPECT_FALSE(result.optimized);
+  EXPECT_NE(result.message.find("no residual blocks"), std::string::npos) << result.message;
+  ASSERT_EQ(result.keyframe_poses.size(), 2u);
+  EXPECT_EQ((result.keyframe_poses[0].second.Inverse() * Sequence().WorldFromCam(0))
+                .Log()
+                .norm(),
+            0.0);
+  EXPECT_EQ((result.keyframe_poses[1].second.Inverse() * turned).Log().norm(), 0.0);
+  const WindowResult next = window.AddKeyframe(test::MakeSyntheticKeyframe(Sequence(), 6, 3));
+  EXPECT_TRUE(next.optimized) << next.message;
+  EXPECT_GT(next.num_residual_blocks, 0);
+}
+
 TEST(WindowOptimizerTest, BadKeyframesAreRejectedWithTheFrameIndex) {
   WindowOptimizer window(TestOptions());
   KeyframeData one_level = test::MakeSyntheticKeyframe(Sequence(), 0, 1);
