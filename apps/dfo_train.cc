@@ -141,6 +141,10 @@ learned::TrainingOptions OptionsFromConfig(const io::Config& c) {
   o.loss.depth_mean_m = c.GetDouble("loss.depth_mean_m");
   o.loss.depth_prior_weight = c.GetDouble("loss.depth_prior_weight");
   o.loss.automask = c.GetBool("loss.automask");
+  o.loss.depth_gauge = c.GetString("loss.depth_gauge") == "geometric_mean"
+                           ? learned::LossOptions::DepthGauge::kGeometricMean
+                           : learned::LossOptions::DepthGauge::kMedian;
+  o.loss.full_resolution = c.GetBool("loss.full_resolution");
   o.augment.enabled = c.GetBool("augment.enabled");
   o.augment.max_scale = c.GetDouble("augment.max_scale");
   o.augment.color_probability = c.GetDouble("augment.color_probability");
@@ -155,6 +159,7 @@ learned::TrainingOptions OptionsFromConfig(const io::Config& c) {
   o.gn_use_masks = c.GetBool("gn.use_masks");
   o.source_feature_grad = c.GetBool("gn.source_feature_grad");
   o.pose_gradient = c.GetBool("gn.pose_gradient");
+  o.gn_handmade_iterations = c.GetInt("gn.handmade_iterations");
   o.pose_source = c.GetString("gn.pose_source") == "ground_truth"
                       ? learned::TrainingOptions::PoseSource::kGroundTruth
                       : learned::TrainingOptions::PoseSource::kAlignment;

@@ -65,9 +65,16 @@ ConfigSchema BuildTrainSchema() {
        "loss.depth_prior_weight", 0.01,
        "Weight of log(raw geometric mean depth / depth_mean_m)^2 (keeps the scale metric-ish)")
       .Min(0);
+  s.AddString("loss.depth_gauge", "geometric_mean",
+              "What the gauge brings to depth_mean_m: each image's median depth, or the batch's "
+              "geometric mean (every pixel then moves the others' scale)")
+      .OneOf({"median", "geometric_mean"});
   s.AddBool("loss.automask", true,
             "Monodepth2 auto-masking: the unwarped sources join the per-pixel minimum (pixels no "
             "warp explains better than no motion stop pulling the depth to the ceiling)");
+  s.AddBool("loss.full_resolution", false,
+            "Monodepth2's full-resolution loss: every level's depth upsampled to the finest "
+            "level, view synthesis there (false: each level at its own size)");
 
   s.AddSection("augment", "Augmentation, identical for the three frames of a snippet.");
   s.AddBool("augment.enabled", true, "Augment the training snippets");
@@ -94,6 +101,10 @@ ConfigSchema BuildTrainSchema() {
             "tracker's gradient rule)");
   s.AddBool("gn.source_feature_grad", true,
             "Backpropagate through the source views' feature network (slower)");
+  s.AddInt("gn.handmade_iterations", 0,
+           "Joint iterations at the start whose alignment runs on the tracker's hand-made "
+           "features instead of the learned ones (bootstrapping; 0 = the paper)")
+      .Min(0);
   s.AddBool("gn.pose_gradient", true,
             "Backpropagate the appearance loss through the alignment's pose (false: the pose is "
             "a constant of each step)");

@@ -123,7 +123,7 @@ torch::Tensor SampleBilinear(const torch::Tensor& image, const torch::Tensor& x,
   const torch::Tensor out = F::grid_sample(image, grid,
                                            F::GridSampleFuncOptions()
                                                .mode(torch::kBilinear)
-                                               .padding_mode(torch::kZeros)
+                                               .padding_mode(torch::kBorder)
                                                .align_corners(true));
   return out.reshape({n, image.size(1), -1});
 }

@@ -38,12 +38,23 @@ struct LossOptions {
   // depth_mean_m)^2 on the raw output, >= 0.
   double depth_mean_m = 10.0;
   double depth_prior_weight = 0.01;
+  // What is brought to depth_mean_m: each image's median depth (only the median pixels carry the
+  // normalisation's gradient) or the batch's geometric mean (every pixel does: gradient-free
+  // pixels became levers on the others' scale and went to the floor or the ceiling).
+  enum class DepthGauge { kMedian, kGeometricMean };
+  DepthGauge depth_gauge = DepthGauge::kGeometricMean;
   // Monodepth2's auto-masking (Godard et al. 2019): the unwarped sources join the per-pixel
   // minimum of the view-synthesis loss, so a pixel that no warp explains better than "no motion"
   // contributes a constant instead of pulling its depth toward the 100 m ceiling (where the warp
   // tends to the rotation-only one). Measured without it: with translation directions still
   // 30-40 degrees off, the depth became bimodal, 60 % of the pixels at 100 m.
   bool automask = false;
+  // Monodepth2's full-resolution multi-scale loss: every level's depth is upsampled (bilinear) to
+  // the finest level and the view synthesis is computed there, against the full-resolution images
+  // (false: each level at its own size with average-pooled images, SfMLearner's way). The coarse
+  // levels then also learn from the fine texture instead of from blurred images, where "no
+  // parallax" fits almost as well.
+  bool full_resolution = false;
 
   // Throws ConfigError naming the field, value and rule.
   void Check() const;
@@ -87,7 +98,8 @@ torch::Tensor InverseWarp(const torch::Tensor& source, const torch::Tensor& dept
                           const torch::Tensor& intrinsics, torch::Tensor* valid = nullptr);
 
 // Samples `image` (N x C x H x W) bilinearly at pixel coordinates `x`, `y` (N x ...; pixel
-// centres at integers, align_corners semantics), zero outside. Returns N x C x (shape of x
+// centres at integers, align_corners semantics); outside the image, the nearest border pixel
+// (Monodepth2's border padding). Returns N x C x (shape of x
 // without N) flattened as N x C x M with M the number of points per batch element.
 torch::Tensor SampleBilinear(const torch::Tensor& image, const torch::Tensor& x,
                              const torch::Tensor& y);

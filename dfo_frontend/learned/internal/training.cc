@@ -12,10 +12,13 @@
 #include <cmath>
 #include <cstdio>
 #include <cstdlib>
+#include <cstring>
 #include <fstream>
 #include <sstream>
 
 #include "dfo_core/error.h"
+#include "dfo_core/frame.h"
+#include "dfo_frontend/feature_source.h"
 
 namespace dfo::learned {
 
@@ -97,6 +100,7 @@ void TrainingOptions::Check() const {
   Require(temperature_start > 0.0, "train.temperature_start", temperature_start, "> 0");
   Require(temperature_end > 0.0, "train.temperature_end", temperature_end, "> 0");
   Require(threads >= 1, "train.threads", threads, ">= 1");
+  Require(gn_handmade_iterations >= 0, "gn.handmade_iterations", gn_handmade_iterations, ">= 0");
   Require(checkpoint_every >= 1, "train.checkpoint_every", checkpoint_every, ">= 1");
   const int divisor = 1 << (network.num_levels - 1);
   Require(network.input_width % divisor == 0, "network.input_width", network.input_width,
@@ -115,38 +119,85 @@ torch::Tensor ViewSynthesisLoss(const Trainer::Batch& batch,
                                                  ImagePyramid(batch.next, levels)};
   torch::Tensor appearance = torch::zeros({});
   for (int l = 0; l < levels; ++l) {
-    const double scale = 1.0 / (1 << l);
+    // The level whose images and intrinsics the view synthesis uses.
+    const int il = options.full_resolution ? 0 : l;
+    const double scale = 1.0 / (1 << il);
     // Level intrinsics: PyramidLevel's (c + 0.5) / 2^l - 0.5.
     torch::Tensor k = batch.intrinsics.clone();
     k.select(1, 0).mul_(scale);
     k.select(1, 1).mul_(scale);
     k.select(1, 2).add_(0.5).mul_(scale).sub_(0.5);
     k.select(1, 3).add_(0.5).mul_(scale).sub_(0.5);
-    const torch::Tensor d = depth[l].contiguous();
-    DFO_CHECK(d.size(2) == targets[l].size(2) && d.size(3) == targets[l].size(3))
-        << "level " << l << " depth " << d.sizes() << " vs image " << targets[l].sizes();
+    torch::Tensor d = depth[l].contiguous();
+    if (il != l) {
+      d = F::interpolate(d, F::InterpolateFuncOptions()
+                                .size(std::vector<int64_t>{targets[0].size(2), targets[0].size(3)})
+                                .mode(torch::kBilinear)
+                                .align_corners(false))
+              .contiguous();
+    }
+    DFO_CHECK(d.size(2) == targets[il].size(2) && d.size(3) == targets[il].size(3))
+        << "level " << l << " depth " << d.sizes() << " vs image " << targets[il].sizes();
     std::vector<torch::Tensor> maps;
     for (int s = 0; s < 2; ++s) {
       torch::Tensor valid;
       const torch::Tensor warped =
-          InverseWarp(sources[s][l].contiguous(), d, rotations[s], translations[s], k, &valid);
-      const torch::Tensor map = AppearanceMap(targets[l].contiguous(), warped, options);
-      // Invalid pixels (outside the source) lose the minimum to any valid one.
-      maps.push_back(map + (1.0 - valid) * 1e3);
+          InverseWarp(sources[s][il].contiguous(), d, rotations[s], translations[s], k, &valid);
+      const torch::Tensor map = AppearanceMap(targets[il].contiguous(), warped, options);
+      // A pixel that falls outside this source (border-padded sample) or behind its camera
+      // loses the minimum to a valid source by a constant 1 (larger than any error of the
+      // clamped mix); it is never excluded. Excluding pixels invalid in both sources rewarded
+      // warping them out of view: the bottom rows, which leave the image in the next frame,
+      // went to the 0.1 m floor of the depth (measured, hand-made-feature alignment).
+      maps.push_back(map + (1.0 - valid));
     }
     if (options.automask) {
       // The unwarped sources; + 1e-5 lets a warp win an exact tie (Monodepth2 adds noise).
       for (int s = 0; s < 2; ++s) {
         maps.push_back(
-            AppearanceMap(targets[l].contiguous(), sources[s][l].contiguous(), options).detach() +
+            AppearanceMap(targets[il].contiguous(), sources[s][il].contiguous(), options)
+                .detach() +
             1e-5);
       }
     }
     const torch::Tensor best = std::get<0>(torch::min(torch::cat(maps, 1), 1, true));
-    const torch::Tensor valid_any = (best < 1e2).to(torch::kFloat32);
-    appearance = appearance + (best * valid_any).sum() / valid_any.sum().clamp_min(1.0);
+    appearance = appearance + best.mean();
   }
   return appearance / levels;
+}
+
+std::vector<torch::Tensor> NormaliseDepthScale(const std::vector<torch::Tensor>& raw,
+                                               const LossOptions& options, torch::Tensor* prior) {
+  // Scale gauge: monocular snippets leave the depth scale unobservable (the alignment's
+  // translation scales with it), so the depths are normalised (LossOptions::depth_gauge) to
+  // depth_mean_m, and a weak prior keeps the raw output's geometric mean there (metric-ish, away
+  // from the sigmoid's saturated ends). The geometric mean, not the mean: a prior on the
+  // arithmetic mean was met by a few pixels at the 100 m ceiling with the rest at the 0.1 m floor
+  // (measured: median depth 0.0999 m while the mean read 10 m). (Also with ground-truth poses:
+  // unnormalised, the initial 0.2 m depths put every warped pixel outside the sources and the
+  // depth collapsed to the 0.1 m floor; measured.)
+  *prior = torch::zeros({});
+  if (options.depth_mean_m <= 0.0) return raw;
+  const torch::Tensor log_mean = torch::log(raw[0]).mean();
+  const double log_target = std::log(options.depth_mean_m);
+  torch::Tensor factor;
+  if (options.depth_gauge == LossOptions::DepthGauge::kGeometricMean) {
+    factor = torch::exp(log_target - log_mean);
+  } else {
+    // Per image: its median depth goes to depth_mean_m. Only each image's median pixel carries
+    // the normalisation's gradient. With the batch geometric mean every pixel did: d L / d log
+    // raw_i = g_i - mean_j g_j, so a pixel without a photometric gradient of its own
+    // (auto-masked, e.g. the uniform road at the bottom) was pushed to the 0.1 m floor or the
+    // 100 m ceiling whenever the rest wanted to move together (measured). Detaching the factor
+    // instead let the raw scale drift to the ceiling.
+    const int64_t n = raw[0].size(0);
+    const torch::Tensor median = std::get<0>(raw[0].reshape({n, -1}).median(1));
+    factor = (options.depth_mean_m / median).view({n, 1, 1, 1});
+  }
+  std::vector<torch::Tensor> out;
+  for (const torch::Tensor& d : raw) out.push_back(d * factor);
+  *prior = (log_mean - log_target).pow(2);
+  return out;
 }
 
 PoseError ComparePoses(const SE3d& estimate, const SE3d& truth) {
@@ -175,6 +226,30 @@ torch::Tensor ImageToTensor(const ImageU8& image) {
           .unsqueeze(0);
   if (image.channels() == 1) t = t.expand({1, 3, image.height(), image.width()});
   return t.contiguous();
+}
+
+std::vector<torch::Tensor> HandmadePyramid(const torch::Tensor& image, const PinholeCamera& camera,
+                                           int num_levels) {
+  DFO_CHECK(image.dim() == 3 && image.size(0) == 3) << image.sizes();
+  const torch::Tensor hwc = (image.detach() * 255.0)
+                                .round()
+                                .clamp(0, 255)
+                                .to(torch::kUInt8)
+                                .permute({1, 2, 0})
+                                .contiguous();
+  Frame frame;
+  frame.camera = camera;
+  frame.image = ImageU8(static_cast<int>(hwc.size(1)), static_cast<int>(hwc.size(0)), 3);
+  std::memcpy(frame.image.data(), hwc.data_ptr<uint8_t>(), frame.image.size());
+  HandmadeFeatureSource source;
+  const FeaturePyramid pyramid = source.Compute(frame, num_levels);
+  std::vector<torch::Tensor> out;
+  for (const FeatureLevel& level : pyramid.levels) {
+    out.push_back(torch::from_blob(const_cast<float*>(level.data.data()),
+                                   {level.channels, level.height, level.width}, torch::kFloat32)
+                      .clone());
+  }
+  return out;
 }
 
 torch::Tensor ZScore(const torch::Tensor& features) {
@@ -419,25 +494,12 @@ StepRecord Trainer::JointStep(const Batch& batch, int iteration) {
   using Clock = std::chrono::steady_clock;
   const auto t0 = Clock::now();
   const DepthNetOutput raw_depth = networks_->depth->forward(batch.target);
-  // Scale gauge: monocular snippets leave the depth scale unobservable (the alignment's
-  // translation scales with it), so the depths used below are normalised to a batch geometric
-  // mean of depth_mean_m (exactly zero gradient along the global scale), and a weak prior keeps
-  // the raw output's geometric mean there (metric-ish, away from the sigmoid's saturated ends).
-  // The geometric mean, not the mean: a prior on the arithmetic mean was met by a few pixels at
-  // the 100 m ceiling with the rest at the 0.1 m floor (measured: median depth 0.0999 m while the
-  // mean read 10 m).
-  DepthNetOutput depth = raw_depth;
   torch::Tensor scale_prior = torch::zeros({});
+  const std::vector<torch::Tensor> depth_levels =
+      NormaliseDepthScale(raw_depth.depth, options_.loss, &scale_prior);
+  DepthNetOutput depth = raw_depth;
+  depth.depth = depth_levels;
   const bool ground_truth_poses = options_.pose_source == TrainingOptions::PoseSource::kGroundTruth;
-  // (Also with ground-truth poses: unnormalised, the initial 0.2 m depths put every warped pixel
-  // outside the sources and the depth collapsed to the 0.1 m floor; measured.)
-  if (options_.loss.depth_mean_m > 0.0) {
-    const torch::Tensor log_mean = torch::log(raw_depth.depth[0]).mean();
-    const double log_target = std::log(options_.loss.depth_mean_m);
-    const torch::Tensor factor = torch::exp(log_target - log_mean);
-    for (auto& d : depth.depth) d = d * factor;
-    scale_prior = (log_mean - log_target).pow(2);
-  }
   const FeatureNetOutput target = networks_->feature->forward(batch.target);
   FeatureNetOutput sources[2];
   {
@@ -471,10 +533,18 @@ StepRecord Trainer::JointStep(const Batch& batch, int iteration) {
     int gn_ok = 0;
     double sum_rotation_error = 0.0, sum_direction_error = 0.0;
     int num_rotation_errors = 0, num_direction_errors = 0;
+    const bool handmade = iteration - options_.ae_iterations < options_.gn_handmade_iterations;
     for (int b = 0; b < n; ++b) {
       AlignmentView ref;
+      std::vector<torch::Tensor> handmade_views[3];
+      if (handmade) {
+        const torch::Tensor* images[3] = {&batch.target, &batch.previous, &batch.next};
+        for (int v = 0; v < 3; ++v) {
+          handmade_views[v] = HandmadePyramid((*images[v])[b], batch.cameras[b], levels);
+        }
+      }
       for (int l = 0; l < levels; ++l) {
-        ref.features.push_back(target_z[l][b]);
+        ref.features.push_back(handmade ? handmade_views[0][l] : target_z[l][b]);
         ref.cameras.push_back(batch.cameras[b].PyramidLevel(l));
         ref.depth.push_back(depth.depth[l][b][0]);
         if (options_.gn_use_masks) ref.masks.push_back(masks[l][b][0]);
@@ -482,7 +552,9 @@ StepRecord Trainer::JointStep(const Batch& batch, int iteration) {
       for (int s = 0; s < 2; ++s) {
         AlignmentView cur;
         cur.cameras = ref.cameras;
-        for (int l = 0; l < levels; ++l) cur.features.push_back(source_z[s][l][b]);
+        for (int l = 0; l < levels; ++l) {
+          cur.features.push_back(handmade ? handmade_views[1 + s][l] : source_z[s][l][b]);
+        }
         const DiffGnResult gn =
             DifferentiableAlign(ref, cur, PoseTensor::FromSE3(SE3d()), options_.gn);
         if (gn.ok) {

@@ -92,6 +92,15 @@ struct TrainingOptions {
   // Backpropagate through the source views' feature network (false: sources are computed without
   // gradients, which saves about a third of the step; the target branch still learns).
   bool source_feature_grad = false;
+  // Bootstrapping curriculum (not in the paper): for the first `gn_handmade_iterations` joint
+  // iterations the alignment runs on the tracker's hand-made feature pyramid of the three frames
+  // (HandmadeFeatureSource, fixed functions of the images) instead of the learned features; the
+  // pose still comes from the differentiable GN, and the view-synthesis gradient still reaches the
+  // depth through it (DDVO's direct alignment on intensities, Wang et al. CVPR 2018). This breaks
+  // the depth/feature chicken-and-egg of a from-scratch start, where both networks are random. The
+  // feature network learns from the reconstruction and sparsity terms meanwhile. 0 = the paper's
+  // learned features from the first joint iteration.
+  int gn_handmade_iterations = 0;
   // Where the warp's poses come from. kAlignment (the method): the differentiable GN.
   // kGroundTruth is a DIAGNOSTIC only (it breaks self-supervision): the warp uses the sequences'
   // ground-truth relative poses (every training sequence needs world_from_cam) and the GN is not
@@ -241,12 +250,22 @@ class Trainer {
 // to the depth's level size, intrinsics scaled by PinholeCamera::PyramidLevel's rule), both
 // sources warped into the target with depth[l] (N x 1 x H_l x W_l, metres) and the poses
 // source_from_target (rotations[s] N x 3 x 3, translations[s] N x 3; s = 0 previous, 1 next),
-// the per-pixel minimum over the sources of AppearanceMap (pixels outside both sources
-// excluded), averaged over the valid pixels and then over the levels. 0-dim tensor.
+// the per-pixel minimum over the sources (and, with automask, the unwarped sources) of
+// AppearanceMap, a source whose sample is outside its image (border-padded) or behind its camera
+// adding 1, averaged over all pixels and then over the levels. 0-dim tensor.
 torch::Tensor ViewSynthesisLoss(const Trainer::Batch& batch,
                                 const std::vector<torch::Tensor>& depth,
                                 const torch::Tensor rotations[2],
                                 const torch::Tensor translations[2], const LossOptions& options);
+
+// The joint stage's scale gauge: the depth pyramid `raw` (network output, metres) scaled by the
+// factor that brings each image's finest-level median depth (options.depth_gauge kMedian) or the
+// batch's geometric mean (kGeometricMean) to options.depth_mean_m, and *prior = log(raw batch
+// geometric mean / depth_mean_m)^2. depth_mean_m = 0: `raw` unchanged and a zero prior. With
+// kMedian a pixel's normalised depth depends on its own raw depth and its image's median pixel
+// only.
+std::vector<torch::Tensor> NormaliseDepthScale(const std::vector<torch::Tensor>& raw,
+                                               const LossOptions& options, torch::Tensor* prior);
 
 // Angles (degrees) between two poses b_from_a: rotation error and the angle between the
 // translation directions (NaN when either translation is shorter than 1e-9).
@@ -262,6 +281,12 @@ torch::Tensor ImageToTensor(const ImageU8& image);
 // Per-channel z-score of a C x H x W (or N x C x H x W, per sample) feature map over its pixels,
 // as FeatureLevel::ZScore (population standard deviation; a constant channel becomes 0).
 torch::Tensor ZScore(const torch::Tensor& features);
+
+// The tracker's hand-made feature pyramid (HandmadeFeatureSource, default options) of one RGB
+// image 3 x H x W in [0, 1] (quantised to 8 bits as the tracker sees frames) with `camera` of its
+// size: num_levels tensors C x H_l x W_l (float, z-scored, no gradient).
+std::vector<torch::Tensor> HandmadePyramid(const torch::Tensor& image, const PinholeCamera& camera,
+                                           int num_levels);
 
 // The history as CSV (header + one row per record) and back. ReadHistoryCsv throws InputError
 // naming the file and line for a malformed row.
