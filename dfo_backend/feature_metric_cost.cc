@@ -76,6 +76,13 @@ FeatureMetricCost::FeatureMetricCost(const FeatureLevel* target, const PinholeCa
       << " channels and K = " << patch_size_;
   set_num_residuals(target_->channels * patch_size_ * patch_size_);
   mutable_parameter_block_sizes()->assign({kPoseAmbientSize, kPoseAmbientSize, 1});
+  const int radius = patch_size_ / 2;
+  rays_.reserve(static_cast<size_t>(patch_size_) * patch_size_);
+  for (int dy = -radius; dy <= radius; ++dy) {
+    for (int dx = -radius; dx <= radius; ++dx) {
+      rays_.push_back(host_camera_.Ray(Eigen::Vector2d(host_uv_.x() + dx, host_uv_.y() + dy)));
+    }
+  }
 }
 
 namespace {
@@ -101,6 +108,74 @@ WarpSetup MakeSetup(const double* host_pose, const double* target_pose) {
   return s;
 }
 
+// The bilinear cell where a patch pixel (target camera coordinates Y, in front) is sampled.
+// Outside the image the projection is clamped to the border (the derivative along a clamped axis
+// is 0). A zero residual there would reward moving points out of view, a cost sink that converged
+// windows fell into (measured: metres of drift on the synthetic sequence).
+struct Cell {
+  bool clamp_x, clamp_y;
+  size_t i00;      // top-left pixel of the cell: x0 in [0, width - 2], so x0 + 1 is valid
+  double ax, ay;   // position inside the cell, in [0, 1]
+};
+
+Cell CellAt(const PinholeCamera& cam, const Eigen::Vector3d& Y, int width, int height) {
+  Eigen::Vector2d p = cam.Project(Y);
+  Cell cell;
+  cell.clamp_x = !(p.x() >= 0.0 && p.x() <= width - 1.0);
+  cell.clamp_y = !(p.y() >= 0.0 && p.y() <= height - 1.0);
+  if (cell.clamp_x) p.x() = p.x() < 0.0 ? 0.0 : (p.x() > width - 1.0 ? width - 1.0 : 0.0);
+  if (cell.clamp_y) p.y() = p.y() < 0.0 ? 0.0 : (p.y() > height - 1.0 ? height - 1.0 : 0.0);
+  const int x0 = std::min(static_cast<int>(std::floor(p.x())), width - 2);
+  const int y0 = std::min(static_cast<int>(std::floor(p.y())), height - 2);
+  cell.ax = p.x() - x0;
+  cell.ay = p.y() - y0;
+  cell.i00 = static_cast<size_t>(y0) * width + x0;
+  return cell;
+}
+
+// The bilinear interpolant of one channel plane at `cell` and its gradient (0 along a clamped
+// axis).
+struct Sample {
+  double value, gx, gy;
+};
+
+Sample Interpolate(const float* plane, int width, const Cell& cell) {
+  const float* f = plane + cell.i00;
+  const double v00 = f[0], v10 = f[1], v01 = f[width], v11 = f[width + 1];
+  const double ax = cell.ax, ay = cell.ay;
+  Sample out;
+  out.value = (1.0 - ay) * ((1.0 - ax) * v00 + ax * v10) + ay * ((1.0 - ax) * v01 + ax * v11);
+  out.gx = cell.clamp_x ? 0.0 : (1.0 - ay) * (v10 - v00) + ay * (v11 - v01);
+  out.gy = cell.clamp_y ? 0.0 : (1.0 - ax) * (v01 - v00) + ax * (v11 - v10);
+  return out;
+}
+
+// d p / d [d_host (6), rho (1)] of one patch pixel, 2 x 7: dpi [dY/d d_host, dY/d rho] with
+// dY/d d_host = [rho R_t^T, -R_t^T hat(Z_w)] and dY/d rho = b. With Q = dpi R_t^T (2 x 3):
+// rho Q, and -q^T hat(Z_w) = (Z_w x q)^T for each row q of Q.
+Eigen::Matrix<double, 2, 7> PixelJacobian(const WarpSetup& s, const PinholeCamera& cam,
+                                          const Eigen::Vector3d& Y, const Eigen::Vector3d& ray,
+                                          double inverse_depth) {
+  const Eigen::Matrix<double, 2, 3> dpi = cam.ProjectJacobian(Y);
+  const Eigen::Matrix<double, 2, 3> q = dpi * s.Rt_T;
+  const Eigen::Vector3d Zw = s.Rh * ray + inverse_depth * s.th;
+  Eigen::Matrix<double, 2, 7> dp;
+  for (int a = 0; a < 2; ++a) {
+    const Eigen::Vector3d qa = q.row(a).transpose();
+    dp.row(a).head<3>() = inverse_depth * qa.transpose();
+    dp.row(a).segment<3>(3) = Zw.cross(qa).transpose();
+  }
+  dp.col(6) = dpi * s.b;
+  return dp;
+}
+
+// Patch pixel k behind the target camera is compared against the z-scored mean (0): its C
+// residuals are the host values (no derivative).
+void FillBehindCamera(const std::vector<double>& host_patch, int k, int kk, int channels,
+                      double* residuals) {
+  for (int c = 0; c < channels; ++c) residuals[c * kk + k] = host_patch[c * kk + k];
+}
+
 }  // namespace
 
 int FeatureMetricCost::NumVisible(const double* host_pose, const double* target_pose,
@@ -111,8 +186,7 @@ int FeatureMetricCost::NumVisible(const double* host_pose, const double* target_
   int visible = 0;
   for (int dy = -radius; dy <= radius; ++dy) {
     for (int dx = -radius; dx <= radius; ++dx) {
-      const Eigen::Vector3d ray =
-          host_camera_.Ray(Eigen::Vector2d(host_uv_.x() + dx, host_uv_.y() + dy));
+      const Eigen::Vector3d& ray = rays_[(dy + radius) * patch_size_ + (dx + radius)];
       const Eigen::Vector3d Y = s.target_R_host * ray + inverse_depth * s.b;
       if (!(Y.z() > 1e-9)) continue;
       const Eigen::Vector2d p = cam.Project(Y);
@@ -161,63 +235,34 @@ bool FeatureMetricCost::EvaluateImpl(const double* host_pose, const double* targ
   for (int dy = -radius; dy <= radius; ++dy) {
     for (int dx = -radius; dx <= radius; ++dx) {
       const int k = (dy + radius) * patch_size_ + (dx + radius);
-      const Eigen::Vector3d ray =
-          host_camera_.Ray(Eigen::Vector2d(host_uv_.x() + dx, host_uv_.y() + dy));
+      const Eigen::Vector3d& ray = rays_[k];
       const Eigen::Vector3d Y = s.target_R_host * ray + inverse_depth * s.b;
       if (!(Y.z() > 1e-9)) {
-        // Behind the target camera: compared against the z-scored mean (0), no derivative.
+        FillBehindCamera(host_patch, k, kk, channels, residuals);
         for (int c = 0; c < channels; ++c) {
           const int row = c * kk + k;
-          residuals[row] = host_patch[row];
           if (jacobian_host) std::fill_n(jacobian_host + pose_cols * row, pose_cols, 0.0);
           if (jacobian_target) std::fill_n(jacobian_target + pose_cols * row, pose_cols, 0.0);
           if (jacobian_inverse_depth) jacobian_inverse_depth[row] = 0.0;
         }
         continue;
       }
-      // Outside the image the projection is clamped to the border (the derivative along a
-      // clamped axis is 0). A zero residual there would reward moving points out of view, a
-      // cost sink that converged windows fell into (measured: metres of drift on the synthetic
-      // sequence).
-      Eigen::Vector2d p = cam.Project(Y);
-      const bool clamp_x = !(p.x() >= 0.0 && p.x() <= width - 1.0);
-      const bool clamp_y = !(p.y() >= 0.0 && p.y() <= height - 1.0);
-      if (clamp_x) p.x() = p.x() < 0.0 ? 0.0 : (p.x() > width - 1.0 ? width - 1.0 : 0.0);
-      if (clamp_y) p.y() = p.y() < 0.0 ? 0.0 : (p.y() > height - 1.0 ? height - 1.0 : 0.0);
-      // Bilinear cell: x0 in [0, width - 2] so that x0 + 1 is valid and ax in [0, 1].
-      const int x0 = std::min(static_cast<int>(std::floor(p.x())), width - 2);
-      const int y0 = std::min(static_cast<int>(std::floor(p.y())), height - 2);
-      const double ax = p.x() - x0, ay = p.y() - y0;
-      const size_t i00 = static_cast<size_t>(y0) * width + x0;
+      const Cell cell = CellAt(cam, Y, width, height);
 
-      // Geometric part: d p / d [d_host (6), rho (1)] = dpi/dY [dY/d d_host, dY/d rho].
-      Eigen::Matrix<double, 2, 7> dp;
+      // Geometric part: d p / d [d_host (6), rho (1)].
+      Eigen::Matrix<double, 2, 7> dp = Eigen::Matrix<double, 2, 7>::Zero();
       Eigen::Matrix<double, 2, 7> dp_host_amb, dp_target_amb;  // ambient, when asked
       if (need_jac) {
-        const Eigen::Matrix<double, 2, 3> dpi = cam.ProjectJacobian(Y);
-        if (need_pose) {
-          const Eigen::Vector3d Zw = s.Rh * ray + inverse_depth * s.th;
-          Eigen::Matrix<double, 3, 6> dY;
-          dY.leftCols<3>() = inverse_depth * s.Rt_T;
-          dY.rightCols<3>() = -s.Rt_T * SO3d::Hat(Zw);
-          dp.leftCols<6>() = dpi * dY;
-        } else {
-          dp.leftCols<6>().setZero();
-        }
-        dp.col(6) = dpi * s.b;
+        dp = PixelJacobian(s, cam, Y, ray, inverse_depth);
         if (ambient && jacobian_host) dp_host_amb = dp.leftCols<6>() * minus_host;
         if (ambient && jacobian_target) dp_target_amb = -dp.leftCols<6>() * minus_target;
       }
       for (int c = 0; c < channels; ++c) {
-        const float* f = target_->data.data() + c * plane + i00;
-        const double v00 = f[0], v10 = f[1], v01 = f[width], v11 = f[width + 1];
-        const double value =
-            (1.0 - ay) * ((1.0 - ax) * v00 + ax * v10) + ay * ((1.0 - ax) * v01 + ax * v11);
+        const Sample v = Interpolate(target_->data.data() + c * plane, width, cell);
         const int row = c * kk + k;
-        residuals[row] = host_patch[row] - value;
+        residuals[row] = host_patch[row] - v.value;
         if (!need_jac) continue;
-        const double gx = clamp_x ? 0.0 : (1.0 - ay) * (v10 - v00) + ay * (v11 - v01);
-        const double gy = clamp_y ? 0.0 : (1.0 - ax) * (v01 - v00) + ax * (v11 - v10);
+        const double gx = v.gx, gy = v.gy;
         const Eigen::Matrix<double, 1, 7> row_jac = -(gx * dp.row(0) + gy * dp.row(1));
         if (ambient) {
           if (jacobian_host) {
@@ -247,11 +292,148 @@ bool FeatureMetricCost::EvaluateImpl(const double* host_pose, const double* targ
   return finite;
 }
 
+// The rows of [A c r] for the C channels of one patch pixel k share the pixel's geometric
+// Jacobian: row = [-(gx d0 + gy d1); r] with d0, d1 the rows of dp = d p_k / d [d_host, rho]
+// (7-vectors) and (gx, gy) the channel's interpolant gradient. So the pixel adds
+//   G_77 += D W D^T,  G_7r -= D w,  G_rr += sum r^2,   D = [d0 d1] (7 x 2),
+// with W = sum_c (gx, gy)^T (gx, gy) and w = sum_c (gx, gy)^T r: the per-channel work is six
+// products instead of a 8 x 8 outer product per row.
+bool FeatureMetricCost::EvaluateGram(const double* host_pose, const double* target_pose,
+                                     double inverse_depth, double* residuals,
+                                     Eigen::Matrix<double, 8, 8>* gram) const {
+  const WarpSetup s = MakeSetup(host_pose, target_pose);
+  const int kk = patch_size_ * patch_size_;
+  const int channels = target_->channels;
+  const int width = target_->width, height = target_->height;
+  const size_t plane = static_cast<size_t>(width) * height;
+  const PinholeCamera& cam = target_->camera;
+  const std::vector<double>& host_patch = *host_patch_;
+  Eigen::Matrix<double, 7, 7> g77 = Eigen::Matrix<double, 7, 7>::Zero();
+  Eigen::Matrix<double, 7, 1> g7r = Eigen::Matrix<double, 7, 1>::Zero();
+  double grr = 0.0;
+  for (int k = 0; k < kk; ++k) {
+    const Eigen::Vector3d& ray = rays_[k];
+    const Eigen::Vector3d Y = s.target_R_host * ray + inverse_depth * s.b;
+    if (!(Y.z() > 1e-9)) {
+      FillBehindCamera(host_patch, k, kk, channels, residuals);
+      for (int c = 0; c < channels; ++c) grr += residuals[c * kk + k] * residuals[c * kk + k];
+      continue;
+    }
+    const Cell cell = CellAt(cam, Y, width, height);
+    // D = [d0 d1] = dp^T (7 x 2).
+    const Eigen::Matrix<double, 7, 2> d =
+        PixelJacobian(s, cam, Y, ray, inverse_depth).transpose();
+    double wxx = 0.0, wxy = 0.0, wyy = 0.0, wxr = 0.0, wyr = 0.0, wrr = 0.0;
+    for (int c = 0; c < channels; ++c) {
+      const Sample v = Interpolate(target_->data.data() + c * plane, width, cell);
+      const int row = c * kk + k;
+      const double r = host_patch[row] - v.value;
+      residuals[row] = r;
+      const double gx = v.gx, gy = v.gy;
+      wxx += gx * gx;
+      wxy += gx * gy;
+      wyy += gy * gy;
+      wxr += gx * r;
+      wyr += gy * r;
+      wrr += r * r;
+    }
+    Eigen::Matrix2d w;
+    w << wxx, wxy, wxy, wyy;
+    const Eigen::Matrix<double, 7, 2> dw = d * w;
+    g77.noalias() += dw * d.transpose();
+    g7r.noalias() -= d * Eigen::Vector2d(wxr, wyr);
+    grr += wrr;
+  }
+  gram->topLeftCorner<7, 7>() = g77;
+  gram->col(7).head<7>() = g7r;
+  gram->row(7).head<7>() = g7r.transpose();
+  (*gram)(7, 7) = grr;
+  bool finite = gram->allFinite();
+  const int n = num_residuals();
+  for (int i = 0; i < n && finite; ++i) finite = std::isfinite(residuals[i]);
+  return finite;
+}
+
 bool FeatureMetricCost::Evaluate(double const* const* parameters, double* residuals,
                                  double** jacobians) const {
   return EvaluateImpl(parameters[0], parameters[1], parameters[2][0], residuals,
                       jacobians ? jacobians[0] : nullptr, jacobians ? jacobians[1] : nullptr,
                       jacobians ? jacobians[2] : nullptr, /*ambient=*/true);
+}
+
+CompressedFeatureMetricCost::CompressedFeatureMetricCost(const FeatureMetricCost* cost)
+    : cost_(cost) {
+  DFO_CHECK(cost_ != nullptr);
+}
+
+// Pivoted outer-product Cholesky of the Gram matrix over its 7 parameter columns, the residual
+// column (7) last and never a pivot (see the header).
+bool CompressedFeatureMetricCost::Evaluate(double const* const* parameters, double* residuals,
+                                           double** jacobians) const {
+  const double* host_pose = parameters[0];
+  const double* target_pose = parameters[1];
+  const double inverse_depth = parameters[2][0];
+  const int n = cost_->num_residuals();
+  // Scratch for the full residual vector; per thread (Ceres evaluates blocks in parallel).
+  thread_local std::vector<double> full;
+  full.resize(static_cast<size_t>(n));
+  const bool any_jacobian =
+      jacobians != nullptr && (jacobians[0] || jacobians[1] || jacobians[2]);
+  if (!any_jacobian) {
+    if (!cost_->EvaluateTangent(host_pose, target_pose, inverse_depth, full.data(), nullptr,
+                                nullptr, nullptr)) {
+      return false;
+    }
+    double sq = 0.0;
+    for (double v : full) sq += v * v;
+    std::fill_n(residuals, kNumResiduals, 0.0);
+    residuals[0] = std::sqrt(sq);
+    return std::isfinite(residuals[0]);
+  }
+  Eigen::Matrix<double, 8, 8> s;  // the Gram matrix, then the running Schur complement
+  if (!cost_->EvaluateGram(host_pose, target_pose, inverse_depth, full.data(), &s)) return false;
+  // R: row i = the i-th row of L7^T in the original column order (zero rows past the rank).
+  Eigen::Matrix<double, 7, 7, Eigen::RowMajor> r_factor = Eigen::Matrix<double, 7, 7>::Zero();
+  Eigen::Matrix<double, 8, 1> r_c = Eigen::Matrix<double, 8, 1>::Zero();
+  const double max_diagonal = s.diagonal().head<7>().maxCoeff();
+  const double floor = 1e-15 * max_diagonal;
+  bool done[7] = {false, false, false, false, false, false, false};
+  for (int i = 0; i < 7; ++i) {
+    int p = -1;
+    for (int j = 0; j < 7; ++j) {
+      if (!done[j] && (p < 0 || s(j, j) > s(p, p))) p = j;
+    }
+    if (!(s(p, p) > floor) || !(max_diagonal > 0.0)) break;
+    done[p] = true;
+    const double pivot = std::sqrt(s(p, p));
+    Eigen::Matrix<double, 8, 1> column = s.col(p) / pivot;
+    for (int j = 0; j < 7; ++j) {
+      if (done[j] && j != p) column(j) = 0.0;
+    }
+    column(p) = pivot;
+    r_factor.row(i) = column.head<7>().transpose();
+    r_c(i) = column(7);
+    s.noalias() -= column * column.transpose();
+  }
+  r_c(7) = std::sqrt(std::max(s(7, 7), 0.0));
+  std::copy(r_c.data(), r_c.data() + kNumResiduals, residuals);
+  using Jacobian8x7 = Eigen::Matrix<double, 8, 7, Eigen::RowMajor>;
+  if (jacobians[0]) {
+    Eigen::Map<Jacobian8x7> out(jacobians[0]);
+    out.topRows<7>() = r_factor.leftCols<6>() * PoseMinusJacobian(host_pose);
+    out.row(7).setZero();
+  }
+  if (jacobians[1]) {
+    Eigen::Map<Jacobian8x7> out(jacobians[1]);
+    out.topRows<7>() = -r_factor.leftCols<6>() * PoseMinusJacobian(target_pose);
+    out.row(7).setZero();
+  }
+  if (jacobians[2]) {
+    Eigen::Map<Eigen::Matrix<double, 8, 1>> out(jacobians[2]);
+    out.head<7>() = r_factor.col(6);
+    out(7) = 0.0;
+  }
+  return r_c.allFinite();
 }
 
 }  // namespace dfo

@@ -30,6 +30,7 @@
 #define DFO_BACKEND_FEATURE_METRIC_COST_H_
 
 #include <ceres/cost_function.h>
+#include <ceres/sized_cost_function.h>
 
 #include <Eigen/Core>
 #include <memory>
@@ -78,6 +79,12 @@ class FeatureMetricCost : public ceres::CostFunction {
   // Number of patch pixels whose projection lies inside the target at these parameters.
   int NumVisible(const double* host_pose, const double* target_pose, double inverse_depth) const;
 
+  // The 8 x 8 Gram matrix of the block's N x 8 matrix [A c r] (A: tangent host Jacobian N x 6,
+  // c: inverse-depth Jacobian, r: residuals; the target Jacobian is -A) and the residuals
+  // (size N). Returns false when a value is not finite. CompressedFeatureMetricCost uses it.
+  bool EvaluateGram(const double* host_pose, const double* target_pose, double inverse_depth,
+                    double* residuals, Eigen::Matrix<double, 8, 8>* gram) const;
+
   int patch_size() const { return patch_size_; }
   int channels() const { return target_->channels; }
 
@@ -91,6 +98,45 @@ class FeatureMetricCost : public ceres::CostFunction {
   Eigen::Vector2d host_uv_;
   int patch_size_;
   std::shared_ptr<const std::vector<double>> host_patch_;
+  // Host rays of the K x K patch pixels, index k (fixed per block: precomputed).
+  std::vector<Eigen::Vector3d> rays_;
+};
+
+// The same block as a FeatureMetricCost, with its C x K x K residuals compressed to 8 without
+// changing anything Ceres's trust-region solvers compute from it (used by the window's solves).
+//
+// The tangent Jacobian of a block is J = [A, -A, c] (host, target, inverse depth; N = C K^2
+// rows). Levenberg-Marquardt uses a block only through its cost 1/2 rho(|r|^2), gradient
+// rho' J^T r, Gauss-Newton matrix J^T J (and Jacobi scaling diag(J^T J)), model cost change
+// (from J^T J, J^T r, |r|^2) and the robust-loss correction of Ceres's Corrector (which, for the
+// normal equations, again only involves |r|^2, J^T r and J^T J). Any (r_c, J_c) with
+//   |r_c|^2 = |r|^2,   J_c^T r_c = J^T r,   J_c^T J_c = J^T J
+// is therefore the same block to the solver. With G = [A c r]^T [A c r] (8 x 8) and its
+// Cholesky factor G = L L^T, L = [L7 0; l^T e] (L7 7 x 7 lower triangular), take r_c = [l; e]
+// and J_c = [R_A, -R_A, R_c; 0] with [R_A R_c] = L7^T and a zero last row:
+//   J_c^T J_c = lift of [A c]^T [A c] = J^T J,  J_c^T r_c = lift of L7 l = [A c]^T r = J^T r,
+//   |r_c|^2 = |l|^2 + e^2 = r^T r.
+// A 27-row block (3 channels, K = 3) becomes 8 rows: Ceres's Jacobian, Schur elimination and
+// scaling work shrink by 27/8. The Cholesky pivots over the 7 parameter columns (largest
+// remaining diagonal first) and stops where the remaining diagonal is below 1e-15 of the
+// largest (rank-deficient blocks: [A c] has rank <= 6 for rho != 0, since c is a combination
+// of A's translation columns); with the pivot order P, [R_A R_c] = L7^T P^T. Its Jacobian is not
+// the derivative of its residual (the implied orthogonal basis of [A c] moves with the
+// parameters), so ceres::GradientChecker does not apply: the tests check the identities
+// above against FeatureMetricCost. A residual-only evaluation returns [|r|, 0, ..., 0].
+// Does not own `cost`, which must outlive it.
+class CompressedFeatureMetricCost : public ceres::SizedCostFunction<8, 7, 7, 1> {
+ public:
+  explicit CompressedFeatureMetricCost(const FeatureMetricCost* cost);
+
+  bool Evaluate(double const* const* parameters, double* residuals,
+                double** jacobians) const override;
+
+  // Rows of the compressed residual.
+  static constexpr int kNumResiduals = 8;
+
+ private:
+  const FeatureMetricCost* cost_;
 };
 
 }  // namespace dfo

@@ -4,12 +4,16 @@
 
 #include <ceres/autodiff_cost_function.h>
 #include <ceres/gradient_checker.h>
+#include <ceres/loss_function.h>
+#include <ceres/crs_matrix.h>
+#include <ceres/problem.h>
 #include <gtest/gtest.h>
 
 #include <cmath>
 #include <random>
 
 #include "dfo_backend/pose_manifold.h"
+#include "dfo_core/lie.h"
 
 namespace dfo {
 namespace {
@@ -99,6 +103,13 @@ struct FeatureMetricTwin {
     return true;
   }
 };
+
+// The host turned 90 degrees about its y axis: no patch pixel is in view, all clamped in x.
+void TurnedAway(const double* host_pose, double* target_pose) {
+  const SE3d turned = PoseFromParameters(host_pose) *
+                      SE3d(SO3d::Exp(Eigen::Vector3d(0, M_PI / 2, 0)), Eigen::Vector3d::Zero());
+  PoseToParameters(turned, target_pose);
+}
 
 struct CostFixture {
   FeatureLevel host = SmoothLevel(64, 48, 4);
@@ -227,10 +238,8 @@ TEST(FeatureMetricCostTest, IdenticalViewsGiveZeroResidual) {
 TEST(FeatureMetricCostTest, OutOfViewPixelsAreClampedNotFreeAndNaNFails) {
   CostFixture fx(21);
   // Target turned 90 degrees: nothing of the patch is visible.
-  const SE3d turned = PoseFromParameters(fx.host_pose) *
-                      SE3d(SO3d::Exp(Eigen::Vector3d(0, M_PI / 2, 0)), Eigen::Vector3d::Zero());
   double target[7];
-  PoseToParameters(turned, target);
+  TurnedAway(fx.host_pose, target);
   FeatureMetricCost cost(&fx.target, fx.host.camera, fx.uv, 3, fx.patch);
   EXPECT_EQ(cost.NumVisible(fx.host_pose, target, fx.rho), 0);
   const int n = cost.num_residuals();
@@ -258,6 +267,119 @@ TEST(FeatureMetricCostTest, OutOfViewPixelsAreClampedNotFreeAndNaNFails) {
   FeatureMetricCost nan_cost(&nan_level, fx.host.camera, fx.uv, 3, fx.patch);
   EXPECT_FALSE(nan_cost.EvaluateTangent(fx.host_pose, fx.target_pose, fx.rho, r.data(), nullptr,
                                         nullptr, nullptr));
+}
+
+// Ambient residuals and Jacobian [J_host J_target J_rho] (N x 15) of a cost at the fixture's
+// parameters (any ceres::CostFunction with the blocks 7, 7, 1).
+struct Linearization {
+  Eigen::VectorXd r;
+  RowMajorMatrixXd j;
+};
+
+Linearization Linearize(const ceres::CostFunction& cost, const double* host, const double* target,
+                        const double* rho) {
+  const int n = cost.num_residuals();
+  Linearization lin;
+  lin.r.resize(n);
+  RowMajorMatrixXd jh(n, 7), jt(n, 7);
+  Eigen::VectorXd jr(n);
+  double* jac[] = {jh.data(), jt.data(), jr.data()};
+  const double* params[] = {host, target, rho};
+  EXPECT_TRUE(cost.Evaluate(params, lin.r.data(), jac));
+  lin.j.resize(n, 15);
+  lin.j << jh, jt, jr;
+  return lin;
+}
+
+// The compression must leave |r|^2, J^T r and J^T J (all the trust-region solver sees) unchanged.
+void ExpectSameNormalEquations(const FeatureMetricCost& full, const double* host,
+                               const double* target, double rho, const std::string& what) {
+  CompressedFeatureMetricCost compressed(&full);
+  ASSERT_EQ(compressed.num_residuals(), 8);
+  const Linearization a = Linearize(full, host, target, &rho);
+  const Linearization b = Linearize(compressed, host, target, &rho);
+  const double cost_scale = std::max(a.r.squaredNorm(), 1e-30);
+  EXPECT_NEAR(b.r.squaredNorm(), a.r.squaredNorm(), 1e-12 * cost_scale) << what;
+  const Eigen::MatrixXd jtj_a = a.j.transpose() * a.j, jtj_b = b.j.transpose() * b.j;
+  const double h_scale = std::max(jtj_a.cwiseAbs().maxCoeff(), 1e-30);
+  EXPECT_LT((jtj_b - jtj_a).cwiseAbs().maxCoeff(), 1e-10 * h_scale) << what;
+  const Eigen::VectorXd g_a = a.j.transpose() * a.r, g_b = b.j.transpose() * b.r;
+  const double g_scale = std::sqrt(h_scale * cost_scale);
+  EXPECT_LT((g_b - g_a).cwiseAbs().maxCoeff(), 1e-10 * g_scale) << what;
+  // A residual-only evaluation gives the same norm.
+  Eigen::VectorXd r_only(8);
+  const double* params[] = {host, target, &rho};
+  ASSERT_TRUE(compressed.Evaluate(params, r_only.data(), nullptr));
+  EXPECT_NEAR(r_only.squaredNorm(), a.r.squaredNorm(), 1e-12 * cost_scale) << what;
+}
+
+TEST(CompressedFeatureMetricCostTest, SameCostGradientAndGaussNewtonMatrix) {
+  for (int seed = 30; seed < 35; ++seed) {
+    CostFixture fx(seed);
+    FeatureMetricCost cost(&fx.target, fx.host.camera, fx.uv, 3, fx.patch);
+    ExpectSameNormalEquations(cost, fx.host_pose, fx.target_pose, fx.rho,
+                              "seed " + std::to_string(seed));
+  }
+  // Clamped pixels (target turned away: only d/dy rows remain, rank-deficient) and a flat target
+  // (no gradient at all: [A c] = 0, everything in the remainder row).
+  CostFixture fx(36);
+  double target[7];
+  TurnedAway(fx.host_pose, target);
+  FeatureMetricCost cost(&fx.target, fx.host.camera, fx.uv, 3, fx.patch);
+  ExpectSameNormalEquations(cost, fx.host_pose, target, fx.rho, "turned away");
+  FeatureLevel flat = fx.target;
+  std::fill(flat.data.begin(), flat.data.end(), 0.25f);
+  FeatureMetricCost flat_cost(&flat, fx.host.camera, fx.uv, 3, fx.patch);
+  ExpectSameNormalEquations(flat_cost, fx.host_pose, fx.target_pose, fx.rho, "flat target");
+  // Zero inverse depth (a point at infinity: the depth column is then independent).
+  ExpectSameNormalEquations(cost, fx.host_pose, fx.target_pose, 0.0, "rho = 0");
+}
+
+// Through Ceres with a robust loss (its Corrector rescales residuals and Jacobians): the gradient
+// and the Gauss-Newton matrix of a one-block problem are the same with either cost.
+TEST(CompressedFeatureMetricCostTest, SameGradientAndJacobianGramThroughHuberLoss) {
+  CostFixture fx(40);
+  FeatureMetricCost full(&fx.target, fx.host.camera, fx.uv, 3, fx.patch);
+  CompressedFeatureMetricCost compressed(&full);
+  // A scale below the block's RMS residual so that the loss is in its linear part.
+  double r_full[36];
+  const double* params[] = {fx.host_pose, fx.target_pose, &fx.rho};
+  ASSERT_TRUE(full.Evaluate(params, r_full, nullptr));
+  double sq = 0.0;
+  for (double v : r_full) sq += v * v;
+  ASSERT_GT(sq, 0.0);
+  auto evaluate = [&](ceres::CostFunction* cost, double* out_cost, Eigen::VectorXd* gradient,
+                      Eigen::MatrixXd* gauss_newton) {
+    double host[7], target[7], rho = fx.rho;
+    std::copy(fx.host_pose, fx.host_pose + 7, host);
+    std::copy(fx.target_pose, fx.target_pose + 7, target);
+    ceres::Problem::Options options;
+    options.cost_function_ownership = ceres::DO_NOT_TAKE_OWNERSHIP;
+    options.manifold_ownership = ceres::DO_NOT_TAKE_OWNERSHIP;
+    ceres::Problem problem(options);
+    SE3Manifold manifold;
+    problem.AddParameterBlock(host, 7, &manifold);
+    problem.AddParameterBlock(target, 7, &manifold);
+    problem.AddResidualBlock(cost, new ceres::HuberLoss(0.3 * std::sqrt(sq)), host, target, &rho);
+    std::vector<double> g;
+    ceres::CRSMatrix crs;
+    ASSERT_TRUE(problem.Evaluate(ceres::Problem::EvaluateOptions(), out_cost, nullptr, &g, &crs));
+    *gradient = Eigen::Map<Eigen::VectorXd>(g.data(), static_cast<int>(g.size()));
+    Eigen::MatrixXd j = Eigen::MatrixXd::Zero(crs.num_rows, crs.num_cols);
+    for (int row = 0; row < crs.num_rows; ++row) {
+      for (int i = crs.rows[row]; i < crs.rows[row + 1]; ++i) j(row, crs.cols[i]) = crs.values[i];
+    }
+    *gauss_newton = j.transpose() * j;
+  };
+  double cost_a = 0.0, cost_b = 0.0;
+  Eigen::VectorXd g_a, g_b;
+  Eigen::MatrixXd h_a, h_b;
+  evaluate(&full, &cost_a, &g_a, &h_a);
+  evaluate(&compressed, &cost_b, &g_b, &h_b);
+  EXPECT_NEAR(cost_b, cost_a, 1e-12 * cost_a);
+  ASSERT_EQ(g_a.size(), 13);  // tangent gradient: 6 + 6 + 1
+  EXPECT_LT((g_b - g_a).cwiseAbs().maxCoeff(), 1e-9 * g_a.cwiseAbs().maxCoeff());
+  EXPECT_LT((h_b - h_a).cwiseAbs().maxCoeff(), 1e-9 * h_a.cwiseAbs().maxCoeff());
 }
 
 }  // namespace
