@@ -60,29 +60,22 @@ bool SampleHostPatchBilinear(const FeatureLevel& level, const Eigen::Vector2d& u
 
 FeatureMetricCost::FeatureMetricCost(const FeatureLevel* target, const PinholeCamera& host_camera,
                                      const Eigen::Vector2d& host_uv, int patch_size,
-                                     std::shared_ptr<const std::vector<double>> host_patch)
-    : target_(target),
-      host_camera_(host_camera),
-      host_uv_(host_uv),
-      patch_size_(patch_size),
-      host_patch_(std::move(host_patch)) {
-  DFO_CHECK(target_ != nullptr && host_patch_ != nullptr);
-  DFO_CHECK(patch_size_ >= 1 && patch_size_ % 2 == 1) << "patch_size " << patch_size_;
-  DFO_CHECK(target_->width >= 2 && target_->height >= 2)
-      << target_->width << "x" << target_->height;
-  DFO_CHECK(host_patch_->size() ==
-            static_cast<size_t>(target_->channels) * patch_size_ * patch_size_)
-      << "host patch has " << host_patch_->size() << " values for " << target_->channels
-      << " channels and K = " << patch_size_;
-  set_num_residuals(target_->channels * patch_size_ * patch_size_);
+                                     std::shared_ptr<const std::vector<double>> host_patch) {
+  DFO_CHECK(target != nullptr && host_patch != nullptr);
+  DFO_CHECK(patch_size >= 1 && patch_size % 2 == 1) << "patch_size " << patch_size;
+  DFO_CHECK(target->width >= 2 && target->height >= 2) << target->width << "x" << target->height;
+  DFO_CHECK(host_patch->size() == static_cast<size_t>(target->channels) * patch_size * patch_size)
+      << "host patch has " << host_patch->size() << " values for " << target->channels
+      << " channels and K = " << patch_size;
+  set_num_residuals(target->channels * patch_size * patch_size);
   mutable_parameter_block_sizes()->assign({kPoseAmbientSize, kPoseAmbientSize, 1});
-  const int radius = patch_size_ / 2;
-  rays_.reserve(static_cast<size_t>(patch_size_) * patch_size_);
-  for (int dy = -radius; dy <= radius; ++dy) {
-    for (int dx = -radius; dx <= radius; ++dx) {
-      rays_.push_back(host_camera_.Ray(Eigen::Vector2d(host_uv_.x() + dx, host_uv_.y() + dy)));
-    }
-  }
+  block_.target = target;
+  block_.host_patch = host_patch->data();
+  block_.host_patch_owner = std::move(host_patch);
+  block_.center_ray = host_camera.Ray(host_uv);
+  block_.ray_step_x = 1.0 / host_camera.fx;
+  block_.ray_step_y = 1.0 / host_camera.fy;
+  block_.patch_size = patch_size;
 }
 
 namespace {
@@ -171,27 +164,27 @@ Eigen::Matrix<double, 2, 7> PixelJacobian(const WarpSetup& s, const PinholeCamer
 
 // Patch pixel k behind the target camera is compared against the z-scored mean (0): its C
 // residuals are the host values (no derivative).
-void FillBehindCamera(const std::vector<double>& host_patch, int k, int kk, int channels,
+void FillBehindCamera(const double* host_patch, int k, int kk, int channels,
                       double* residuals) {
   for (int c = 0; c < channels; ++c) residuals[c * kk + k] = host_patch[c * kk + k];
 }
 
 }  // namespace
 
-int FeatureMetricCost::NumVisible(const double* host_pose, const double* target_pose,
+int FeatureMetricBlock::NumVisible(const double* host_pose, const double* target_pose,
                                   double inverse_depth) const {
   const WarpSetup s = MakeSetup(host_pose, target_pose);
-  const int radius = patch_size_ / 2;
-  const PinholeCamera& cam = target_->camera;
+  const int radius = patch_size / 2;
+  const PinholeCamera& cam = target->camera;
   int visible = 0;
   for (int dy = -radius; dy <= radius; ++dy) {
     for (int dx = -radius; dx <= radius; ++dx) {
-      const Eigen::Vector3d& ray = rays_[(dy + radius) * patch_size_ + (dx + radius)];
+      const Eigen::Vector3d ray = Ray((dy + radius) * patch_size + (dx + radius));
       const Eigen::Vector3d Y = s.target_R_host * ray + inverse_depth * s.b;
       if (!(Y.z() > 1e-9)) continue;
       const Eigen::Vector2d p = cam.Project(Y);
-      if (p.x() >= 0.0 && p.y() >= 0.0 && p.x() <= target_->width - 1.0 &&
-          p.y() <= target_->height - 1.0) {
+      if (p.x() >= 0.0 && p.y() >= 0.0 && p.x() <= target->width - 1.0 &&
+          p.y() <= target->height - 1.0) {
         ++visible;
       }
     }
@@ -203,14 +196,14 @@ bool FeatureMetricCost::EvaluateTangent(const double* host_pose, const double* t
                                         double inverse_depth, double* residuals,
                                         double* jacobian_host, double* jacobian_target,
                                         double* jacobian_inverse_depth) const {
-  return EvaluateImpl(host_pose, target_pose, inverse_depth, residuals, jacobian_host,
-                      jacobian_target, jacobian_inverse_depth, /*ambient=*/false);
+  return block_.Evaluate(host_pose, target_pose, inverse_depth, residuals, jacobian_host,
+                         jacobian_target, jacobian_inverse_depth, /*ambient=*/false);
 }
 
 // Tangent (N x 6) or ambient (N x 7, J_tangent * PoseMinusJacobian) pose Jacobians. The ambient
 // conversion is folded into the 2 x 6 geometric Jacobian of each patch pixel (2 x 7 per pose),
 // so it costs O(K^2), not O(C K^2), per block.
-bool FeatureMetricCost::EvaluateImpl(const double* host_pose, const double* target_pose,
+bool FeatureMetricBlock::Evaluate(const double* host_pose, const double* target_pose,
                                      double inverse_depth, double* residuals, double* jacobian_host,
                                      double* jacobian_target, double* jacobian_inverse_depth,
                                      bool ambient) const {
@@ -221,21 +214,19 @@ bool FeatureMetricCost::EvaluateImpl(const double* host_pose, const double* targ
     if (jacobian_host) minus_host = PoseMinusJacobian(host_pose);
     if (jacobian_target) minus_target = PoseMinusJacobian(target_pose);
   }
-  const int radius = patch_size_ / 2;
-  const int kk = patch_size_ * patch_size_;
-  const int channels = target_->channels;
-  const int width = target_->width, height = target_->height;
-  const size_t plane = static_cast<size_t>(width) * height;
-  const PinholeCamera& cam = target_->camera;
+  const int radius = patch_size / 2;
+  const int kk = patch_size * patch_size;
+  const int channels = target->channels;
+  const int width = target->width, height = target->height;
+  const PinholeCamera& cam = target->camera;
   const bool need_pose = jacobian_host != nullptr || jacobian_target != nullptr;
   const bool need_jac = need_pose || jacobian_inverse_depth != nullptr;
-  const std::vector<double>& host_patch = *host_patch_;
-  bool finite = true;
+    bool finite = true;
 
   for (int dy = -radius; dy <= radius; ++dy) {
     for (int dx = -radius; dx <= radius; ++dx) {
-      const int k = (dy + radius) * patch_size_ + (dx + radius);
-      const Eigen::Vector3d& ray = rays_[k];
+      const int k = (dy + radius) * patch_size + (dx + radius);
+      const Eigen::Vector3d ray = Ray(k);
       const Eigen::Vector3d Y = s.target_R_host * ray + inverse_depth * s.b;
       if (!(Y.z() > 1e-9)) {
         FillBehindCamera(host_patch, k, kk, channels, residuals);
@@ -258,7 +249,7 @@ bool FeatureMetricCost::EvaluateImpl(const double* host_pose, const double* targ
         if (ambient && jacobian_target) dp_target_amb = -dp.leftCols<6>() * minus_target;
       }
       for (int c = 0; c < channels; ++c) {
-        const Sample v = Interpolate(target_->data.data() + c * plane, width, cell);
+        const Sample v = Interpolate(target->Channel(c), width, cell);
         const int row = c * kk + k;
         residuals[row] = host_patch[row] - v.value;
         if (!need_jac) continue;
@@ -287,7 +278,7 @@ bool FeatureMetricCost::EvaluateImpl(const double* host_pose, const double* targ
       }
     }
   }
-  const int n = num_residuals();
+  const int n = target->channels * patch_size * patch_size;
   for (int i = 0; i < n && finite; ++i) finite = std::isfinite(residuals[i]);
   return finite;
 }
@@ -298,21 +289,19 @@ bool FeatureMetricCost::EvaluateImpl(const double* host_pose, const double* targ
 //   G_77 += D W D^T,  G_7r -= D w,  G_rr += sum r^2,   D = [d0 d1] (7 x 2),
 // with W = sum_c (gx, gy)^T (gx, gy) and w = sum_c (gx, gy)^T r: the per-channel work is six
 // products instead of a 8 x 8 outer product per row.
-bool FeatureMetricCost::EvaluateGram(const double* host_pose, const double* target_pose,
+bool FeatureMetricBlock::EvaluateGram(const double* host_pose, const double* target_pose,
                                      double inverse_depth, double* residuals,
                                      Eigen::Matrix<double, 8, 8>* gram) const {
   const WarpSetup s = MakeSetup(host_pose, target_pose);
-  const int kk = patch_size_ * patch_size_;
-  const int channels = target_->channels;
-  const int width = target_->width, height = target_->height;
-  const size_t plane = static_cast<size_t>(width) * height;
-  const PinholeCamera& cam = target_->camera;
-  const std::vector<double>& host_patch = *host_patch_;
-  Eigen::Matrix<double, 7, 7> g77 = Eigen::Matrix<double, 7, 7>::Zero();
+  const int kk = patch_size * patch_size;
+  const int channels = target->channels;
+  const int width = target->width, height = target->height;
+  const PinholeCamera& cam = target->camera;
+    Eigen::Matrix<double, 7, 7> g77 = Eigen::Matrix<double, 7, 7>::Zero();
   Eigen::Matrix<double, 7, 1> g7r = Eigen::Matrix<double, 7, 1>::Zero();
   double grr = 0.0;
   for (int k = 0; k < kk; ++k) {
-    const Eigen::Vector3d& ray = rays_[k];
+    const Eigen::Vector3d ray = Ray(k);
     const Eigen::Vector3d Y = s.target_R_host * ray + inverse_depth * s.b;
     if (!(Y.z() > 1e-9)) {
       FillBehindCamera(host_patch, k, kk, channels, residuals);
@@ -325,7 +314,7 @@ bool FeatureMetricCost::EvaluateGram(const double* host_pose, const double* targ
         PixelJacobian(s, cam, Y, ray, inverse_depth).transpose();
     double wxx = 0.0, wxy = 0.0, wyy = 0.0, wxr = 0.0, wyr = 0.0, wrr = 0.0;
     for (int c = 0; c < channels; ++c) {
-      const Sample v = Interpolate(target_->data.data() + c * plane, width, cell);
+      const Sample v = Interpolate(target->Channel(c), width, cell);
       const int row = c * kk + k;
       const double r = host_patch[row] - v.value;
       residuals[row] = r;
@@ -349,21 +338,22 @@ bool FeatureMetricCost::EvaluateGram(const double* host_pose, const double* targ
   gram->row(7).head<7>() = g7r.transpose();
   (*gram)(7, 7) = grr;
   bool finite = gram->allFinite();
-  const int n = num_residuals();
+  const int n = target->channels * patch_size * patch_size;
   for (int i = 0; i < n && finite; ++i) finite = std::isfinite(residuals[i]);
   return finite;
 }
 
 bool FeatureMetricCost::Evaluate(double const* const* parameters, double* residuals,
                                  double** jacobians) const {
-  return EvaluateImpl(parameters[0], parameters[1], parameters[2][0], residuals,
-                      jacobians ? jacobians[0] : nullptr, jacobians ? jacobians[1] : nullptr,
-                      jacobians ? jacobians[2] : nullptr, /*ambient=*/true);
+  return block_.Evaluate(parameters[0], parameters[1], parameters[2][0], residuals,
+                         jacobians ? jacobians[0] : nullptr, jacobians ? jacobians[1] : nullptr,
+                         jacobians ? jacobians[2] : nullptr, /*ambient=*/true);
 }
 
-CompressedFeatureMetricCost::CompressedFeatureMetricCost(const FeatureMetricCost* cost)
-    : cost_(cost) {
-  DFO_CHECK(cost_ != nullptr);
+CompressedFeatureMetricCost::CompressedFeatureMetricCost(const FeatureMetricCost* cost) {
+  DFO_CHECK(cost != nullptr);
+  block_ = cost->block();
+  num_full_residuals_ = cost->num_residuals();
 }
 
 // Pivoted outer-product Cholesky of the Gram matrix over its 7 parameter columns, the residual
@@ -373,15 +363,15 @@ bool CompressedFeatureMetricCost::Evaluate(double const* const* parameters, doub
   const double* host_pose = parameters[0];
   const double* target_pose = parameters[1];
   const double inverse_depth = parameters[2][0];
-  const int n = cost_->num_residuals();
+  const int n = num_full_residuals_;
   // Scratch for the full residual vector; per thread (Ceres evaluates blocks in parallel).
   thread_local std::vector<double> full;
   full.resize(static_cast<size_t>(n));
   const bool any_jacobian =
       jacobians != nullptr && (jacobians[0] || jacobians[1] || jacobians[2]);
   if (!any_jacobian) {
-    if (!cost_->EvaluateTangent(host_pose, target_pose, inverse_depth, full.data(), nullptr,
-                                nullptr, nullptr)) {
+    if (!block_.Evaluate(host_pose, target_pose, inverse_depth, full.data(), nullptr, nullptr,
+                         nullptr, /*ambient=*/false)) {
       return false;
     }
     double sq = 0.0;
@@ -391,7 +381,7 @@ bool CompressedFeatureMetricCost::Evaluate(double const* const* parameters, doub
     return std::isfinite(residuals[0]);
   }
   Eigen::Matrix<double, 8, 8> s;  // the Gram matrix, then the running Schur complement
-  if (!cost_->EvaluateGram(host_pose, target_pose, inverse_depth, full.data(), &s)) return false;
+  if (!block_.EvaluateGram(host_pose, target_pose, inverse_depth, full.data(), &s)) return false;
   // R: row i = the i-th row of L7^T in the original column order (zero rows past the rank).
   Eigen::Matrix<double, 7, 7, Eigen::RowMajor> r_factor = Eigen::Matrix<double, 7, 7>::Zero();
   Eigen::Matrix<double, 8, 1> r_c = Eigen::Matrix<double, 8, 1>::Zero();

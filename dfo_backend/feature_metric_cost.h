@@ -53,6 +53,34 @@ std::vector<double> SampleHostPatch(const FeatureLevel& level, int x, int y, int
 bool SampleHostPatchBilinear(const FeatureLevel& level, const Eigen::Vector2d& uv, int patch_size,
                              std::vector<double>* patch);
 
+// Everything one residual block needs to evaluate, by value. FeatureMetricCost and
+// CompressedFeatureMetricCost each hold a copy, so that evaluating a block reads one small object
+// and the images rather than a chain of heap objects: the window's solves are bound by memory
+// latency (about 10^4 blocks over 7 keyframes' feature maps do not fit in the caches).
+struct FeatureMetricBlock {
+  const FeatureLevel* target = nullptr;  // not owned
+  // C * K * K host values, channel-major; host_patch points into host_patch_owner.
+  const double* host_patch = nullptr;
+  std::shared_ptr<const std::vector<double>> host_patch_owner;
+  Eigen::Vector3d center_ray = Eigen::Vector3d::Zero();  // host ray through the patch centre
+  double ray_step_x = 0.0, ray_step_y = 0.0;  // ray change per pixel step: 1 / fx, 1 / fy
+  int patch_size = 1;
+
+  // Host ray of patch pixel k = (dy + K/2) K + (dx + K/2).
+  Eigen::Vector3d Ray(int k) const {
+    const int radius = patch_size / 2;
+    return center_ray + Eigen::Vector3d((k % patch_size - radius) * ray_step_x,
+                                        (k / patch_size - radius) * ray_step_y, 0.0);
+  }
+  // See FeatureMetricCost: residuals and tangent (ambient = false) or ambient Jacobians.
+  bool Evaluate(const double* host_pose, const double* target_pose, double inverse_depth,
+                double* residuals, double* jacobian_host, double* jacobian_target,
+                double* jacobian_inverse_depth, bool ambient) const;
+  bool EvaluateGram(const double* host_pose, const double* target_pose, double inverse_depth,
+                    double* residuals, Eigen::Matrix<double, 8, 8>* gram) const;
+  int NumVisible(const double* host_pose, const double* target_pose, double inverse_depth) const;
+};
+
 // Residual block of one point (hosted in h) into one target keyframe t. Parameter blocks:
 // host pose (7, dfo_backend/pose_manifold.h), target pose (7), inverse depth (1). Residuals:
 // C * K * K. Does not own the target level: it must outlive the cost (the window keeps it).
@@ -77,29 +105,24 @@ class FeatureMetricCost : public ceres::CostFunction {
                        double* jacobian_inverse_depth) const;
 
   // Number of patch pixels whose projection lies inside the target at these parameters.
-  int NumVisible(const double* host_pose, const double* target_pose, double inverse_depth) const;
+  int NumVisible(const double* host_pose, const double* target_pose, double inverse_depth) const {
+    return block_.NumVisible(host_pose, target_pose, inverse_depth);
+  }
 
   // The 8 x 8 Gram matrix of the block's N x 8 matrix [A c r] (A: tangent host Jacobian N x 6,
   // c: inverse-depth Jacobian, r: residuals; the target Jacobian is -A) and the residuals
   // (size N). Returns false when a value is not finite. CompressedFeatureMetricCost uses it.
   bool EvaluateGram(const double* host_pose, const double* target_pose, double inverse_depth,
-                    double* residuals, Eigen::Matrix<double, 8, 8>* gram) const;
+                    double* residuals, Eigen::Matrix<double, 8, 8>* gram) const {
+    return block_.EvaluateGram(host_pose, target_pose, inverse_depth, residuals, gram);
+  }
 
-  int patch_size() const { return patch_size_; }
-  int channels() const { return target_->channels; }
+  int patch_size() const { return block_.patch_size; }
+  int channels() const { return block_.target->channels; }
+  const FeatureMetricBlock& block() const { return block_; }
 
  private:
-  bool EvaluateImpl(const double* host_pose, const double* target_pose, double inverse_depth,
-                    double* residuals, double* jacobian_host, double* jacobian_target,
-                    double* jacobian_inverse_depth, bool ambient) const;
-
-  const FeatureLevel* target_;
-  PinholeCamera host_camera_;
-  Eigen::Vector2d host_uv_;
-  int patch_size_;
-  std::shared_ptr<const std::vector<double>> host_patch_;
-  // Host rays of the K x K patch pixels, index k (fixed per block: precomputed).
-  std::vector<Eigen::Vector3d> rays_;
+  FeatureMetricBlock block_;
 };
 
 // The same block as a FeatureMetricCost, with its C x K x K residuals compressed to 8 without
@@ -124,7 +147,7 @@ class FeatureMetricCost : public ceres::CostFunction {
 // the derivative of its residual (the implied orthogonal basis of [A c] moves with the
 // parameters), so ceres::GradientChecker does not apply: the tests check the identities
 // above against FeatureMetricCost. A residual-only evaluation returns [|r|, 0, ..., 0].
-// Does not own `cost`, which must outlive it.
+// Copies the block of `cost` (cost need not outlive it; its target level must).
 class CompressedFeatureMetricCost : public ceres::SizedCostFunction<8, 7, 7, 1> {
  public:
   explicit CompressedFeatureMetricCost(const FeatureMetricCost* cost);
@@ -136,7 +159,8 @@ class CompressedFeatureMetricCost : public ceres::SizedCostFunction<8, 7, 7, 1> 
   static constexpr int kNumResiduals = 8;
 
  private:
-  const FeatureMetricCost* cost_;
+  FeatureMetricBlock block_;
+  int num_full_residuals_;
 };
 
 }  // namespace dfo
