@@ -163,6 +163,7 @@ learned::TrainingOptions OptionsFromConfig(const io::Config& c) {
   o.pose_source = c.GetString("gn.pose_source") == "ground_truth"
                       ? learned::TrainingOptions::PoseSource::kGroundTruth
                       : learned::TrainingOptions::PoseSource::kAlignment;
+  o.initial_depth_m = c.GetDouble("train.initial_depth_m");
   o.batch_size = c.GetInt("train.batch_size");
   o.static_threshold = c.GetDouble("train.static_threshold");
   o.ae_iterations = c.GetInt("train.ae_iterations");

@@ -65,14 +65,14 @@ ConfigSchema BuildTrainSchema() {
        "loss.depth_prior_weight", 0.01,
        "Weight of log(raw geometric mean depth / depth_mean_m)^2 (keeps the scale metric-ish)")
       .Min(0);
-  s.AddString("loss.depth_gauge", "geometric_mean",
+  s.AddString("loss.depth_gauge", "median",
               "What the gauge brings to depth_mean_m: each image's median depth, or the batch's "
               "geometric mean (every pixel then moves the others' scale)")
       .OneOf({"median", "geometric_mean"});
   s.AddBool("loss.automask", true,
             "Monodepth2 auto-masking: the unwarped sources join the per-pixel minimum (pixels no "
             "warp explains better than no motion stop pulling the depth to the ceiling)");
-  s.AddBool("loss.full_resolution", false,
+  s.AddBool("loss.full_resolution", true,
             "Monodepth2's full-resolution loss: every level's depth upsampled to the finest "
             "level, view synthesis there (false: each level at its own size)");
 
@@ -101,9 +101,10 @@ ConfigSchema BuildTrainSchema() {
             "tracker's gradient rule)");
   s.AddBool("gn.source_feature_grad", true,
             "Backpropagate through the source views' feature network (slower)");
-  s.AddInt("gn.handmade_iterations", 0,
+  s.AddInt("gn.handmade_iterations", 20000,
            "Joint iterations at the start whose alignment runs on the tracker's hand-made "
-           "features instead of the learned ones (bootstrapping; 0 = the paper)")
+           "features instead of the learned ones (bootstrapping; 0 = the paper's learned "
+           "features from the start)")
       .Min(0);
   s.AddBool("gn.pose_gradient", true,
             "Backpropagate the appearance loss through the alignment's pose (false: the pose is "
@@ -114,6 +115,11 @@ ConfigSchema BuildTrainSchema() {
       .OneOf({"alignment", "ground_truth"});
 
   s.AddSection("train", "Schedule, optimiser, batches, determinism, checkpoints.");
+  s.AddDouble("train.initial_depth_m", 10.0,
+              "A fresh run starts the depth network's output at this depth in metres (0 = "
+              "zero biases: 0.2 m, next to the 0.1 m floor)")
+      .Min(0)
+      .Max(99.9);
   s.AddInt("train.batch_size", 4, "Snippets per iteration").Min(1);
   s.AddDouble("train.static_threshold", 0.01,
               "Skip snippets whose frames differ by less (mean absolute grey, 0..1)")

@@ -5,6 +5,7 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <string>
 
 #include "dfo_core/error.h"
 
@@ -103,6 +104,30 @@ TEST(NetworksTest, DepthRangeIsThePapers) {
     EXPECT_LE(d.depth[l].max().item<double>(), kMaxNetworkDepth * (1 + 1e-6));
     EXPECT_TRUE(torch::allclose(d.depth[l], DepthFromSigmoid(d.sigmoid[l])));
   }
+}
+
+// SetInitialDepth: with the heads' weights zeroed, every level outputs exactly the initial
+// depth; out-of-range depths are ConfigErrors.
+TEST(NetworksTest, InitialDepthSetsTheHeadsBias) {
+  const NetworkOptions o = SmallOptions();
+  Networks nets(o, 2);
+  {
+    torch::NoGradGuard no_grad;
+    for (auto& p : nets->depth->named_parameters()) {
+      if (p.key().rfind("disp_heads.", 0) == 0 && p.key().find("weight") != std::string::npos) {
+        p.value().zero_();
+      }
+    }
+  }
+  nets->depth->SetInitialDepth(10.0);
+  torch::NoGradGuard no_grad;
+  const DepthNetOutput d = nets->depth->forward(TestImage(o.input_width, o.input_height, 3));
+  for (int l = 0; l < o.num_levels; ++l) {
+    EXPECT_NEAR(d.depth[l].min().item<double>(), 10.0, 1e-3) << "level " << l;
+    EXPECT_NEAR(d.depth[l].max().item<double>(), 10.0, 1e-3) << "level " << l;
+  }
+  EXPECT_THROW(nets->depth->SetInitialDepth(0.05), ConfigError);
+  EXPECT_THROW(nets->depth->SetInitialDepth(100.0), ConfigError);
 }
 
 TEST(NetworksTest, GaussianSmoothingKernel) {

@@ -352,19 +352,6 @@ TEST(ViewSynthesisTest, GroundTruthDepthAndPosesGiveTheLowestLoss) {
         << levels << " levels: good " << good << ", inverse pose " << inverse;
     EXPECT_LT(good, ratio * still)
         << levels << " levels: good " << good << ", identity pose " << still;
-    // Sending the bottom rows (which leave the next frame's view) out of both sources by a
-    // 0.1 m depth must not pay: out-of-view pixels are not excluded from the mean.
-    std::vector<torch::Tensor> escaped;
-    for (const torch::Tensor& d : t) {
-      torch::Tensor e = d.clone();
-      const int64_t rows = e.size(2) / 8;
-      e.narrow(2, e.size(2) - rows, rows).fill_(0.1);
-      escaped.push_back(e);
-    }
-    const double escape =
-        ViewSynthesisLoss(batch, escaped, batch.gt_rotation, batch.gt_translation, lo)
-            .item<double>();
-    EXPECT_LT(good, escape) << levels << " levels: good " << good << ", bottom rows out " << escape;
     // The upper 60 % at 1000 m (where the warp is rotation-only: what the early models
     // converged to) costs much more than the truth with every variant of the loss (measured at
     // 4 levels: 0.017-0.024 against 0.038-0.044).
@@ -385,6 +372,23 @@ TEST(ViewSynthesisTest, GroundTruthDepthAndPosesGiveTheLowestLoss) {
         const double far_loss =
             ViewSynthesisLoss(batch, top_far, batch.gt_rotation, batch.gt_translation, variant)
                 .item<double>();
+        // Sending the bottom rows (which leave the next frame's view) to a 0.1 m depth must not
+        // pay: out-of-view pixels are not excluded from the mean (measured at 4 levels, full
+        // resolution: 0.016 against 0.028; with auto-masking only 0.013 against 0.015, where
+        // the unwarped sources explain the uniform road almost as well).
+        std::vector<torch::Tensor> escaped;
+        for (const torch::Tensor& d : t) {
+          torch::Tensor e = d.clone();
+          const int64_t rows = e.size(2) / 8;
+          e.narrow(2, e.size(2) - rows, rows).fill_(0.1);
+          escaped.push_back(e);
+        }
+        const double escape_loss =
+            ViewSynthesisLoss(batch, escaped, batch.gt_rotation, batch.gt_translation, variant)
+                .item<double>();
+        EXPECT_LT(truth_loss, escape_loss)
+            << levels << " levels, full_resolution " << full_resolution << ", automask "
+            << automask << ": truth " << truth_loss << ", bottom rows out " << escape_loss;
         EXPECT_LT(truth_loss, 0.6 * far_loss)
             << levels << " levels, full_resolution " << full_resolution << ", automask "
             << automask << ": truth " << truth_loss << ", top at 1000 m " << far_loss;

@@ -141,6 +141,19 @@ DepthNetImpl::DepthNetImpl(const NetworkOptions& options) : options_(options) {
   for (int l = 0; l < levels; ++l) disp_heads_->push_back(Conv(dec[l], 1, 3));
 }
 
+void DepthNetImpl::SetInitialDepth(double depth_m) {
+  if (!(depth_m > 0.1 && depth_m < 100.0)) {
+    std::ostringstream msg;
+    msg << "initial depth " << depth_m << " m is outside the depth network's range (0.1, 100) m";
+    throw ConfigError(msg.str());
+  }
+  const double s = (1.0 / depth_m - 0.01) / 10.0;
+  torch::NoGradGuard no_grad;
+  for (size_t l = 0; l < disp_heads_->size(); ++l) {
+    disp_heads_[l]->as<torch::nn::Conv2dImpl>()->bias.fill_(std::log(s / (1.0 - s)));
+  }
+}
+
 DepthNetOutput DepthNetImpl::forward(const torch::Tensor& image) {
   CheckInput(image, options_, "DepthNet");
   const int stages = static_cast<int>(options_.depth_encoder_widths.size());

@@ -76,6 +76,9 @@ class DepthNetImpl : public torch::nn::Module {
   explicit DepthNetImpl(const NetworkOptions& options);
   // image: N x 3 x H x W RGB in [0, 1]; H, W divisible by 2^(num_levels - 1).
   DepthNetOutput forward(const torch::Tensor& image);
+  // Sets the bias of every level's disparity head so that a zero input to it gives depth_m
+  // (sigmoid s = (1 / depth_m - 0.01) / 10). depth_m in (0.1, 100), else ConfigError.
+  void SetInitialDepth(double depth_m);
   const NetworkOptions& options() const { return options_; }
 
  private:

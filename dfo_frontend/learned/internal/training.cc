@@ -100,6 +100,8 @@ void TrainingOptions::Check() const {
   Require(temperature_start > 0.0, "train.temperature_start", temperature_start, "> 0");
   Require(temperature_end > 0.0, "train.temperature_end", temperature_end, "> 0");
   Require(threads >= 1, "train.threads", threads, ">= 1");
+  Require(initial_depth_m == 0.0 || (initial_depth_m > 0.1 && initial_depth_m < 100.0),
+          "train.initial_depth_m", initial_depth_m, "0 or in (0.1, 100)");
   Require(gn_handmade_iterations >= 0, "gn.handmade_iterations", gn_handmade_iterations, ">= 0");
   Require(checkpoint_every >= 1, "train.checkpoint_every", checkpoint_every, ">= 1");
   const int divisor = 1 << (network.num_levels - 1);
@@ -328,6 +330,7 @@ Trainer::Trainer(const TrainingOptions& options, std::vector<TrainingSequence> d
   }
   torch::set_num_threads(options_.threads);
   networks_ = Networks(options_.network, options_.seed);
+  if (options_.initial_depth_m > 0.0) networks_->depth->SetInitialDepth(options_.initial_depth_m);
   if (options_.channels_last) ToChannelsLast(*networks_);
   optimizer_ = std::make_unique<torch::optim::Adam>(
       networks_->parameters(), torch::optim::AdamOptions(options_.learning_rate)

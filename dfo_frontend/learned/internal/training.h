@@ -115,6 +115,11 @@ struct TrainingOptions {
   bool pose_gradient = true;
   PoseSource pose_source = PoseSource::kAlignment;
 
+  // A fresh run starts the depth heads at this depth (DepthNet::SetInitialDepth), metres in
+  // (0.1, 100); 0 = zero biases (sigmoid 0.5: 0.2 m, only 2x above the 0.1 m floor, so pixels
+  // that want to be nearer than half the median saturate at the floor in the first iterations
+  // and never come back: measured, the bottom rows of the road).
+  double initial_depth_m = 10.0;
   int batch_size = 4;  // snippets per iteration, >= 1
   // Snippets whose target differs from either neighbour by less than this mean absolute grey
   // difference (0..1) are static and skipped. >= 0; 0 keeps all.
