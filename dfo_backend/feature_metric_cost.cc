@@ -111,15 +111,16 @@ struct Cell {
   double ax, ay;   // position inside the cell, in [0, 1]
 };
 
-Cell CellAt(const PinholeCamera& cam, const Eigen::Vector3d& Y, int width, int height) {
+inline Cell CellAt(const PinholeCamera& cam, const Eigen::Vector3d& Y, int width, int height) {
   Eigen::Vector2d p = cam.Project(Y);
   Cell cell;
   cell.clamp_x = !(p.x() >= 0.0 && p.x() <= width - 1.0);
   cell.clamp_y = !(p.y() >= 0.0 && p.y() <= height - 1.0);
   if (cell.clamp_x) p.x() = p.x() < 0.0 ? 0.0 : (p.x() > width - 1.0 ? width - 1.0 : 0.0);
   if (cell.clamp_y) p.y() = p.y() < 0.0 ? 0.0 : (p.y() > height - 1.0 ? height - 1.0 : 0.0);
-  const int x0 = std::min(static_cast<int>(std::floor(p.x())), width - 2);
-  const int y0 = std::min(static_cast<int>(std::floor(p.y())), height - 2);
+  // p is in [0, width - 1] x [0, height - 1] here, so truncation is floor (and cheaper).
+  const int x0 = std::min(static_cast<int>(p.x()), width - 2);
+  const int y0 = std::min(static_cast<int>(p.y()), height - 2);
   cell.ax = p.x() - x0;
   cell.ay = p.y() - y0;
   cell.i00 = static_cast<size_t>(y0) * width + x0;
@@ -132,7 +133,7 @@ struct Sample {
   double value, gx, gy;
 };
 
-Sample Interpolate(const float* plane, int width, const Cell& cell) {
+inline Sample Interpolate(const float* plane, int width, const Cell& cell) {
   const float* f = plane + cell.i00;
   const double v00 = f[0], v10 = f[1], v01 = f[width], v11 = f[width + 1];
   const double ax = cell.ax, ay = cell.ay;
@@ -146,7 +147,7 @@ Sample Interpolate(const float* plane, int width, const Cell& cell) {
 // d p / d [d_host (6), rho (1)] of one patch pixel, 2 x 7: dpi [dY/d d_host, dY/d rho] with
 // dY/d d_host = [rho R_t^T, -R_t^T hat(Z_w)] and dY/d rho = b. With Q = dpi R_t^T (2 x 3):
 // rho Q, and -q^T hat(Z_w) = (Z_w x q)^T for each row q of Q.
-Eigen::Matrix<double, 2, 7> PixelJacobian(const WarpSetup& s, const PinholeCamera& cam,
+inline Eigen::Matrix<double, 2, 7> PixelJacobian(const WarpSetup& s, const PinholeCamera& cam,
                                           const Eigen::Vector3d& Y, const Eigen::Vector3d& ray,
                                           double inverse_depth) {
   const Eigen::Matrix<double, 2, 3> dpi = cam.ProjectJacobian(Y);
