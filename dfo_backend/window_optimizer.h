@@ -14,12 +14,14 @@
 //     image), each with one inverse depth from the keyframe's depth (pixels without a valid
 //     depth are skipped); create a residual block (dfo_backend/feature_metric_cost.h) from every
 //     point to every other window keyframe in which its patch is visible, old points included.
-//  2. Solve with Ceres: poses on the SE(3) manifold (pose_manifold.h), the oldest keyframe held
-//     constant (gauge), inverse depths bounded below by min_inverse_depth (projected after each
-//     solve), Huber or Cauchy loss, points eliminated first, optional priors; then drop, per target
-//     keyframe, the blocks whose cost exceeds outlier_gate_factor x the outlier_gate_percentile
-//     cost of that keyframe, and solve once more. A solve that fails or ends with a non-finite cost
-//     restores the state it started from (result.optimized = false, result.message says why).
+//  2. Solve with Ceres (each block as its 8-row CompressedFeatureMetricCost: the same cost,
+//     gradient and normal equations): poses on the SE(3) manifold (pose_manifold.h), the oldest
+//     keyframe held constant (gauge), inverse depths bounded below by min_inverse_depth
+//     (projected after each solve), Huber or Cauchy loss, points eliminated first, optional
+//     priors; then drop, per target keyframe, the blocks whose cost exceeds outlier_gate_factor x
+//     the outlier_gate_percentile cost of that keyframe, and solve once more. A solve that fails
+//     or ends with a non-finite cost restores the state it started from (result.optimized =
+//     false, result.message says why).
 //  3. If the window holds more than max_keyframes, one keyframe leaves (never the newest two):
 //     the oldest with fewer than min_point_fraction of its selected points still observed in
 //     the newest keyframe, else DSO's distance
