@@ -3,6 +3,7 @@
 // model file; also predicts depth PNGs with a trained checkpoint for `dfo_eval depth`.
 #include <unistd.h>
 
+#include <algorithm>
 #include <atomic>
 #include <chrono>
 #include <cmath>
@@ -54,7 +55,9 @@ options:
   --write-depth OUT    predict the depth of every frame of --sequence with DIR/checkpoint.pt and
                        write 16-bit PNGs (metres * 256, the sequence's native size, image file
                        names) into OUT, for `dfo_eval depth --gt SEQ/depth_0 --pred OUT`
-  --sequence SEQ_DIR   KITTI-layout sequence folder for --write-depth
+  --sequence SEQ_DIR   KITTI-layout sequence folder for --write-depth, or a TUM RGB-D folder
+                       (rgb.txt, depth.txt: predictions named as the associated depth maps, for
+                       `dfo_eval depth --gt SEQ_DIR/depth --gt-scale 5000`)
   --print-config       print the effective configuration and exit
   --help               this text
 
@@ -192,6 +195,28 @@ io::Sequence OpenTrainingSequence(const std::string& folder, int width, int heig
   return io::OpenSequence(d);
 }
 
+bool IsTumFolder(const std::string& folder) {
+  return std::filesystem::exists(std::filesystem::path(folder) / "rgb.txt");
+}
+
+// A TUM RGB-D folder (rgb.txt, depth.txt) for --write-depth: RGB with the associated depth maps,
+// at the training width and the height that keeps the images' aspect ratio (a multiple of
+// 2^(levels - 1); the networks are fully convolutional).
+io::Sequence OpenTumSequence(const std::string& folder, const learned::NetworkOptions& network) {
+  io::DatasetOptions probe;
+  probe.type = "tum";
+  probe.path = folder;
+  probe.depth = true;
+  const PinholeCamera native = io::OpenSequence(probe).native_camera();
+  const int divisor = 1 << (network.num_levels - 1);
+  const double height = static_cast<double>(network.input_width) * native.height / native.width;
+  io::DatasetOptions d = probe;
+  d.color = true;
+  d.image_width = network.input_width;
+  d.image_height = std::max(divisor, static_cast<int>(std::lround(height / divisor)) * divisor);
+  return io::OpenSequence(d);
+}
+
 ImageU8 ToRgb(ImageU8 image) {
   if (image.channels() == 3) return image;
   ImageU8 rgb(image.width(), image.height(), 3);
@@ -287,15 +312,22 @@ std::string Notes(const Args& args, const learned::Trainer& trainer) {
 }
 
 // Depth PNGs of every frame of a sequence (predicted at the training size, resized bilinearly to
-// the sequence's native size).
+// the sequence's native size). KITTI layout: named as the images. TUM RGB-D folder: predicted at
+// the training width with the images' aspect ratio, named as the associated depth maps (frames
+// without one are skipped), so that `dfo_eval depth --gt FOLDER/depth --gt-scale 5000` pairs
+// them.
 void WriteDepth(learned::Trainer& trainer, const Args& args) {
   const learned::TrainingOptions& o = trainer.options();
+  const bool tum = IsTumFolder(args.sequence_dir);
   const io::Sequence seq =
-      OpenTrainingSequence(args.sequence_dir, o.network.input_width, o.network.input_height);
+      tum ? OpenTumSequence(args.sequence_dir, o.network)
+          : OpenTrainingSequence(args.sequence_dir, o.network.input_width, o.network.input_height);
   const PinholeCamera native = seq.native_camera();
   std::filesystem::create_directories(args.write_depth_dir);
   double sum_median = 0.0;
+  size_t written = 0;
   for (size_t i = 0; i < seq.size(); ++i) {
+    if (tum && seq.frame(i).depth_path.empty()) continue;
     const torch::Tensor image = learned::ImageToTensor(ToRgb(seq.LoadImage(i)));
     torch::Tensor depth = trainer.PredictDepth(image)[0];
     depth = torch::nn::functional::interpolate(
@@ -308,12 +340,16 @@ void WriteDepth(learned::Trainer& trainer, const Args& args) {
     sum_median += depth.median().item<double>();
     ImageF out(native.width, native.height, 1);
     std::copy(depth.data_ptr<float>(), depth.data_ptr<float>() + depth.numel(), out.data());
-    const std::string name = std::filesystem::path(seq.frame(i).image_path).filename().string();
+    const std::string name =
+        std::filesystem::path(tum ? seq.frame(i).depth_path : seq.frame(i).image_path)
+            .filename()
+            .string();
     io::WriteDepthPng(args.write_depth_dir + "/" + name, out, 256.0);
+    ++written;
   }
-  std::cout << "dfo_train: wrote " << seq.size() << " depth maps to " << args.write_depth_dir
-            << " (mean of the per-image median depths " << sum_median / seq.size() << " m, model "
-            << "iteration " << trainer.iteration() << ")\n";
+  std::cout << "dfo_train: wrote " << written << " depth maps to " << args.write_depth_dir
+            << " (mean of the per-image median depths " << sum_median / std::max<size_t>(written, 1)
+            << " m, model iteration " << trainer.iteration() << ")\n";
 }
 
 int Run(const Args& args) {

@@ -120,6 +120,20 @@ TEST_F(DfoTrainAppTest, SigtermLeavesACheckpointAndResumeContinuesTheCurve) {
             out + "/depth --median-scaling --json");
   ASSERT_EQ(eval.status, 0) << eval.out;
   EXPECT_NE(eval.out.find("abs_rel"), std::string::npos) << eval.out;
+  // A TUM RGB-D folder (with ../shared/data only): predictions at the images' aspect ratio, named
+  // as the associated depth maps, so that dfo_eval pairs every ground-truth map.
+  if (!test::SharedDataDir().empty()) {
+    const std::string tum = test::SharedDataDir() + "/tum/fr3_cabinet_keyframes";
+    const CommandResult written = Shell(Train("--output " + out + "/run --write-depth " + out +
+                                              "/tum_depth --sequence " + tum));
+    ASSERT_EQ(written.status, 0) << written.out;
+    EXPECT_NE(written.out.find("wrote 58 depth maps"), std::string::npos) << written.out;
+    const CommandResult tum_eval =
+        Shell(std::string(DFO_EVAL_EXE) + " depth --gt " + tum + "/depth --gt-scale 5000 --pred " +
+              out + "/tum_depth --median-scaling --json");
+    ASSERT_EQ(tum_eval.status, 0) << tum_eval.out;
+    EXPECT_NE(tum_eval.out.find("abs_rel"), std::string::npos) << tum_eval.out;
+  }
   // Export from the checkpoint.
   const CommandResult exported =
       Shell(Train("--output " + out + "/run --export --model " + out + "/exported.dfo"));
