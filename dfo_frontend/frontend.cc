@@ -40,6 +40,16 @@ bool IsFinite(const SE3d& pose) {
   return pose.translation().allFinite() && pose.quaternion().coeffs().allFinite();
 }
 
+// Fewest point pairs for a depth-scale estimate.
+constexpr int kMinScalePairs = 20;
+
+// Multiplies every valid depth of the pyramid by `scale`.
+void ScaleDepth(DepthPyramid* depth, double scale) {
+  for (ImageF& level : depth->levels) {
+    for (float& d : level.vector()) d = static_cast<float>(d * scale);
+  }
+}
+
 void CheckFrame(const Frame& frame) {
   std::ostringstream msg;
   msg << "frame " << frame.index << ": ";
@@ -121,6 +131,12 @@ TrackedFrame Frontend::Process(const Frame& frame) {
   // A reference needs enough points: at least min_inliers_lost patches at the finest level.
   const int min_points = MinReferencePoints();
   auto make_reference = [&](const SE3d& world_from_cam) {
+    // A switch from a tracked reference carries its depth scale over (FrontendOptions::depth_scale).
+    if (s.has_reference && PropagatesDepthScale()) {
+      const double scale = DepthScaleFromReference(
+          depth, world_from_cam.Inverse() * s.world_from_ref, features.levels[0].camera);
+      if (scale > 0.0) ScaleDepth(&depth, scale);
+    }
     const int points = tracker_.SetReference(features, depth);
     if (points < min_points) {
       s.has_reference = false;
@@ -204,6 +220,35 @@ TrackedFrame Frontend::Process(const Frame& frame) {
   return finish(out);
 }
 
+bool Frontend::PropagatesDepthScale() const { return options_.depth_scale == "propagate"; }
+
+double Frontend::DepthScaleFromReference(const DepthPyramid& depth, const SE3d& cam_from_ref,
+                                         const PinholeCamera& camera) const {
+  if (depth.num_levels() == 0) return 0.0;
+  const ImageF& map = depth.levels[0];
+  const std::vector<Eigen::Vector2i> points = tracker_.reference_points(0);
+  const std::vector<float> depths = tracker_.reference_depths(0);
+  std::vector<double> ratios;
+  ratios.reserve(points.size());
+  for (size_t i = 0; i < points.size() && i < depths.size(); ++i) {
+    if (!(depths[i] > 0.0f)) continue;
+    const Eigen::Vector3d p_ref =
+        camera.Unproject(Eigen::Vector2d(points[i].x(), points[i].y()), double(depths[i]));
+    const Eigen::Vector3d p_cam = cam_from_ref * p_ref;
+    if (!(p_cam.z() > 0.0)) continue;
+    const Eigen::Vector2d uv = camera.Project(p_cam);
+    if (!camera.IsInImage(uv, 1.0)) continue;
+    const int x = static_cast<int>(std::lround(uv.x())), y = static_cast<int>(std::lround(uv.y()));
+    if (!map.InBounds(x, y)) continue;
+    const double d = map(x, y);
+    if (d > 0.0 && std::isfinite(d)) ratios.push_back(p_cam.z() / d);
+  }
+  if (static_cast<int>(ratios.size()) < kMinScalePairs) return 0.0;
+  std::nth_element(ratios.begin(), ratios.begin() + ratios.size() / 2, ratios.end());
+  const double scale = ratios[ratios.size() / 2];
+  return std::isfinite(scale) && scale > 0.0 ? scale : 0.0;
+}
+
 int Frontend::MinReferencePoints() const { return std::max(options_.tracker.min_inliers_lost, 12); }
 
 int Frontend::MinReferenceDepths() const {
@@ -218,6 +263,12 @@ bool Frontend::MakeLastFrameReference(KeyframeData* keyframe) {
   if (!already) {
     if (s.last_depth.num_levels() == 0 || s.last_depth.NumValid(0) < MinReferenceDepths()) {
       return false;  // keep tracking against the current reference
+    }
+    if (s.has_reference && PropagatesDepthScale() && !s.last_features.levels.empty()) {
+      const double scale =
+          DepthScaleFromReference(s.last_depth, last.world_from_cam.Inverse() * s.world_from_ref,
+                                  s.last_features.levels[0].camera);
+      if (scale > 0.0) ScaleDepth(&s.last_depth, scale);
     }
     const int points = tracker_.SetReference(s.last_features, s.last_depth);
     if (points < MinReferencePoints()) {

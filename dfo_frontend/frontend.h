@@ -41,6 +41,15 @@ struct FrontendOptions {
   TrackerOptions tracker;
   // When a tracked frame becomes the new reference.
   ReferenceOptions reference;
+  // Depth scale of a new reference: "none" takes the depth source's maps as they are;
+  // "propagate" rescales a new reference's depth pyramid by the median over the old reference's
+  // points of (their depth moved into the new frame by the tracked pose) / (the new map's depth at
+  // their projection), so that the scale carries over from reference to reference (monocular
+  // networks give each image its own scale). The first reference, and a restart after a loss,
+  // keep the source's scale. Measured on the demo sequence with the default model (a reference
+  // every ~3 frames): propagate 23.0 m Sim3 ATE against 9.8 m with none, the per-switch ratio
+  // noise compounding as a random walk, so "none" is the default.
+  std::string depth_scale = "none";
   // Threads for the frontend's own work, >= 1. The tracker is currently single-threaded (its
   // per-level problems are small); the value is validated and kept for the learned sources.
   int num_threads = 1;
@@ -105,6 +114,13 @@ class Frontend {
   // Fewest finest-level points of a usable reference, and fewest valid finest-level depths a
   // frame needs before a switch to it is tried.
   int MinReferencePoints() const;
+  // Whether a new reference's depth is rescaled (FrontendOptions::depth_scale and the source).
+  bool PropagatesDepthScale() const;
+  // Median over the current reference's finest-level points of (their depth moved by
+  // cam_from_ref) / (`depth`'s finest-level value at their projection with `camera`); 0 when
+  // fewer than 20 points pair up.
+  double DepthScaleFromReference(const DepthPyramid& depth, const SE3d& cam_from_ref,
+                                 const PinholeCamera& camera) const;
   int MinReferenceDepths() const;
   FrontendOptions options_;
   std::unique_ptr<FeatureSource> features_;

@@ -81,6 +81,8 @@ void FrontendOptions::Check() const {
               "one of {handmade, learned}");
   CheckOption(depth == "gt" || depth == "learned", "frontend.depth", depth,
               "one of {gt, learned}");
+  CheckOption(depth_scale == "none" || depth_scale == "propagate", "frontend.depth_scale",
+              depth_scale, "one of {none, propagate}");
   CheckOption(num_threads >= 1, "frontend.num_threads", num_threads, ">= 1");
   // Nested options name their own section; prefix it with "frontend.".
   try {

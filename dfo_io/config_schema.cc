@@ -78,6 +78,11 @@ ConfigSchema BuildSchema() {
               "0 = none")
       .Min(0)
       .Max(3);
+  s.AddString("frontend.depth_scale", "none",
+              "Depth scale of a new reference: none (the source's maps as they are) or propagate "
+              "(rescaled to agree with the old reference's points; measured worse with the "
+              "default learned model, see README)")
+      .OneOf({"none", "propagate"});
 
   // Defaults mirror LearnedModelOptions (dfo_frontend/learned/learned_sources.h) except the model
   // path (required there) and the threads (run.threads there); a test in tests/apps compares them
