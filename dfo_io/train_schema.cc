@@ -101,7 +101,7 @@ ConfigSchema BuildTrainSchema() {
             "tracker's gradient rule)");
   s.AddBool("gn.source_feature_grad", true,
             "Backpropagate through the source views' feature network (slower)");
-  s.AddInt("gn.handmade_iterations", 20000,
+  s.AddInt("gn.handmade_iterations", 800,
            "Joint iterations at the start whose alignment runs on the tracker's hand-made "
            "features instead of the learned ones (bootstrapping; 0 = the paper's learned "
            "features from the start)")

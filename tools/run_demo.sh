@@ -37,6 +37,14 @@ if [ "$LCM_LIVE" = 1 ]; then LCM_ARGS+=(--set lcm.enable=true); fi
 "$RUN" --config "$CONFIG" --set dataset.path="$OUT_DIR/synthetic" --output "$OUT_DIR/run" \
   "${LCM_ARGS[@]}"
 
+echo
+echo "== dfo demo: the same sequence with the depth of the default learned model =="
+echo "   (models/default.dfo, trained by dfo_train on other synthetic seeds; frames at its 208 x 64)"
+ROOT="$(cd "$(dirname "$0")/.." && pwd)"
+mkdir -p "$OUT_DIR/run_learned"
+"$RUN" --config "$ROOT/configs/demo_learned.yaml" --set dataset.path="$OUT_DIR/synthetic" \
+  --set learned.model="$ROOT/models/default.dfo" --output "$OUT_DIR/run_learned"
+
 # A few figures from summary.json (pretty-printed: one key per line).
 SUMMARY="$OUT_DIR/run/summary.json"
 # value KEY [OBJECT]: the first "KEY": value, after the line that opens "OBJECT": { when given.
@@ -62,6 +70,14 @@ for which in frontend windowed; do
     "$(fixed gt_path_length_m $which 1)" "$(fixed ate_rmse_se3 $which 4)" \
     "$(fixed rpe_trans_rmse $which 4)"
 done
+SUMMARY="$OUT_DIR/run_learned/summary.json"
+for which in frontend windowed; do
+  printf "%-25s %s m rmse = %s %% of the path; SE3 ATE %s m; RPE %s m/frame\n" \
+    "learned depth, $which:" "$(fixed ate_rmse $which 4)" "$(fixed ate_rmse_pct_of_path $which 3)" \
+    "$(fixed ate_rmse_se3 $which 4)" "$(fixed rpe_trans_rmse $which 4)"
+done
+echo "                          (208 x 64; ground-truth depth at that size: see README; pictures in $OUT_DIR/run_learned/)"
+SUMMARY="$OUT_DIR/run/summary.json"
 echo "speed:                    $(fixed fps '' 1) frames/s (whole run: loading PNGs + frontend + window); window per keyframe median $(fixed median backend_per_keyframe 1) ms"
 echo "sequence (KITTI layout):  $OUT_DIR/synthetic/sequences/00  (image_0, image_2, depth_0, calib.txt, times.txt)"
 echo "ground truth poses:       $OUT_DIR/synthetic/poses/00.txt"

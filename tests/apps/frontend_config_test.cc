@@ -133,7 +133,8 @@ TEST(FrontendConfig, ThreadsZeroMeansHardwareThreads) {
 }
 
 TEST(FrontendConfig, EveryShippedConfigGivesValidFrontendOptions) {
-  for (const char* name : {"default.yaml", "demo.yaml", "kitti.yaml", "tum.yaml"}) {
+  for (const char* name :
+       {"default.yaml", "demo.yaml", "demo_learned.yaml", "kitti.yaml", "tum.yaml"}) {
     SCOPED_TRACE(name);
     const io::Config config =
         io::LoadConfig(test::SourceDir() + "/configs/" + name, io::DfoSchema());
