@@ -69,15 +69,23 @@ struct LearnedModel::Impl {
   LearnedModelOptions options;
   LearnedModelInfo info;
   learned::LoadedModel model;
-  bool has_cache = false;
+  // The frame whose outputs are held, and which of them are (each network runs on demand, once
+  // per frame: a hand-made-feature run never pays for the feature network).
   CacheKey key;
+  bool has_key = false;
+  bool has_features = false;
+  bool has_depth = false;
   FeaturePyramid features;
   DepthPyramid depth;
   LearnedFrameStats stats;
   int64_t runs = 0;
 
   void Load();
-  void Run(const Frame& frame);
+  // Makes the asked-for outputs of `frame` available (running only what is not cached).
+  void Run(const Frame& frame, bool want_features, bool want_depth);
+  void StoreDepth(const Frame& frame, const std::vector<torch::Tensor>& depth_levels);
+  void StoreFeatures(const Frame& frame, const std::vector<torch::Tensor>& feature_levels,
+                     const std::vector<torch::Tensor>& logit_levels);
   std::string What(const Frame& frame) const {
     return "model " + options.model_path + ", frame " + std::to_string(frame.index);
   }
@@ -137,7 +145,7 @@ void LearnedModel::Impl::Load() {
   }
 }
 
-void LearnedModel::Impl::Run(const Frame& frame) {
+void LearnedModel::Impl::Run(const Frame& frame, bool want_features, bool want_depth) {
   const ImageU8& image = frame.image;
   if (image.empty()) throw InputError(What(frame) + ": empty image");
   if (image.channels() != 1 && image.channels() != 3) {
@@ -171,8 +179,20 @@ void LearnedModel::Impl::Run(const Frame& frame) {
   k.height = height;
   k.channels = image.channels();
   k.hash = HashBytes(image.data(), image.size());
-  if (has_cache && k == key) return;
-  has_cache = false;
+  if (!has_key || !(k == key)) {
+    has_key = false;
+    has_features = false;
+    has_depth = false;
+  }
+  const bool need_features = want_features && !has_features;
+  const bool need_depth = want_depth && !has_depth;
+  if (!need_features && !need_depth) return;
+  if (!has_key) {
+    // A new frame: its figures start from zero.
+    stats = LearnedFrameStats();
+    stats.frame_index = frame.index;
+    ++runs;
+  }
 
   const auto start = std::chrono::steady_clock::now();
   c10::InferenceMode inference_mode;
@@ -187,14 +207,18 @@ void LearnedModel::Impl::Run(const Frame& frame) {
   if (image.channels() == 1) input = input.expand({1, 3, height, width});
   input = input.contiguous(torch::MemoryFormat::ChannelsLast);
 
-  std::vector<torch::Tensor> depth_levels, feature_levels, logit_levels;
   if (model.kind == learned::LoadedModel::Kind::kDfo) {
-    learned::DepthNetOutput d = model.networks->depth->forward(input);
-    learned::FeatureNetOutput f = model.networks->feature->forward(input);
-    depth_levels = std::move(d.depth);
-    feature_levels = std::move(f.features);
-    logit_levels = std::move(f.mask_logits);
+    if (need_depth) {
+      StoreDepth(frame, model.networks->depth->forward(input).depth);
+      stats.ran_depth_network = true;
+    }
+    if (need_features) {
+      learned::FeatureNetOutput f = model.networks->feature->forward(input);
+      StoreFeatures(frame, f.features, f.mask_logits);
+      stats.ran_feature_network = true;
+    }
   } else {
+    // A TorchScript module gives everything in one forward.
     c10::IValue output;
     try {
       output = model.script.forward({input.contiguous()});
@@ -207,14 +231,25 @@ void LearnedModel::Impl::Run(const Frame& frame) {
                        ": TorchScript forward failed: " + msg.substr(0, msg.find('\n')));
     }
     learned::ScriptOutputs s = learned::CheckScriptOutputs(output, o, width, height, What(frame));
-    depth_levels = std::move(s.depth);
-    feature_levels = std::move(s.features);
-    logit_levels = std::move(s.mask_logits);
+    // Counted once: a module that has run leaves nothing to compute for this frame.
+    stats.nonfinite_depth = 0;
+    stats.nonfinite_features = 0;
+    stats.nonfinite_logits = 0;
+    StoreDepth(frame, s.depth);
+    StoreFeatures(frame, s.features, s.mask_logits);
+    stats.ran_depth_network = true;
+    stats.ran_feature_network = true;
   }
+  stats.network_ms +=
+      std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start).count();
+  key = k;
+  has_key = true;
+}
 
-  stats = LearnedFrameStats();
-  stats.frame_index = frame.index;
-  features.levels.clear();
+void LearnedModel::Impl::StoreDepth(const Frame& frame,
+                                    const std::vector<torch::Tensor>& depth_levels) {
+  const learned::NetworkOptions& o = model.options;
+  const int width = frame.image.width(), height = frame.image.height();
   depth.levels.clear();
   for (int l = 0; l < o.num_levels; ++l) {
     const int w = width >> l, h = height >> l;
@@ -226,7 +261,18 @@ void LearnedModel::Impl::Run(const Frame& frame) {
     ImageF depth_map(w, h, 1);
     std::memcpy(depth_map.data(), d.data_ptr<float>(), sizeof(float) * w * h);
     depth.levels.push_back(std::move(depth_map));
+  }
+  has_depth = true;
+}
 
+void LearnedModel::Impl::StoreFeatures(const Frame& frame,
+                                       const std::vector<torch::Tensor>& feature_levels,
+                                       const std::vector<torch::Tensor>& logit_levels) {
+  const learned::NetworkOptions& o = model.options;
+  const int width = frame.image.width(), height = frame.image.height();
+  features.levels.clear();
+  for (int l = 0; l < o.num_levels; ++l) {
+    const int w = width >> l, h = height >> l;
     // Features: non-finite values -> 0; their pixels (and non-finite logits) are never selected.
     const int c = static_cast<int>(feature_levels[l].size(1));
     torch::Tensor f = feature_levels[l].to(torch::kFloat32).contiguous().view({c, h, w});
@@ -248,11 +294,7 @@ void LearnedModel::Impl::Run(const Frame& frame) {
     level.ZScore();
     features.levels.push_back(std::move(level));
   }
-  stats.network_ms =
-      std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start).count();
-  ++runs;
-  key = k;
-  has_cache = true;
+  has_features = true;
 }
 
 LearnedModel::LearnedModel(const LearnedModelOptions& options) : impl_(std::make_unique<Impl>()) {
@@ -266,12 +308,12 @@ const LearnedModelInfo& LearnedModel::info() const { return impl_->info; }
 const LearnedModelOptions& LearnedModel::options() const { return impl_->options; }
 
 const FeaturePyramid& LearnedModel::Features(const Frame& frame) {
-  impl_->Run(frame);
+  impl_->Run(frame, /*want_features=*/true, /*want_depth=*/false);
   return impl_->features;
 }
 
 const DepthPyramid& LearnedModel::Depth(const Frame& frame) {
-  impl_->Run(frame);
+  impl_->Run(frame, /*want_features=*/false, /*want_depth=*/true);
   return impl_->depth;
 }
 

@@ -7,8 +7,10 @@
 //   std::unique_ptr<FeatureSource> features = MakeLearnedFeatureSource(model);
 //   std::unique_ptr<DepthSource> depth = MakeLearnedDepthSource(model);
 //
-// Both sources share ONE model: the networks run once per frame (the last frame's outputs are
-// cached, keyed by frame index, timestamp and image content), whichever source asks first.
+// Both sources share ONE model. Each network runs only when its output is asked for, at most
+// once per frame (the last frame's outputs are cached, keyed by frame index, timestamp and image
+// content): hand-made features with learned depth run the depth network alone. A TorchScript
+// module gives both outputs in one forward.
 //
 // Model files (details in dfo_frontend/learned/internal/model_file.h):
 //  * dfo's own format ("dfo-model" version 1): one torch::serialize archive with both networks'
@@ -82,10 +84,12 @@ struct LearnedModelInfo {
   int64_t feature_parameters = 0;  // same for the feature network
 };
 
-// Figures of the last network run.
+// Figures of the last frame the networks ran on.
 struct LearnedFrameStats {
   int frame_index = -1;
-  double network_ms = 0.0;         // wall time of both networks incl. conversions
+  double network_ms = 0.0;         // wall time of the networks run on it, incl. conversions
+  bool ran_depth_network = false;    // the depth network ran on this frame
+  bool ran_feature_network = false;  // the feature network ran on this frame
   int64_t nonfinite_depth = 0;     // depth values replaced by 0 (all levels)
   int64_t nonfinite_features = 0;  // feature values replaced by 0 (all levels and channels)
   int64_t nonfinite_logits = 0;    // mask logits treated as "never select"
@@ -105,8 +109,8 @@ class LearnedModel {
   const LearnedModelInfo& info() const;
   const LearnedModelOptions& options() const;
 
-  // Both networks' outputs for `frame` at all model levels (cached: a second call for the same
-  // frame returns the stored result). Features are z-scored per channel and level and carry the
+  // The feature / depth network's outputs for `frame` at all model levels (each network runs
+  // on the first call for a frame; a second call for the same frame returns the stored result). Features are z-scored per channel and level and carry the
   // hard top-rho selection mask; depth is in metres, 0 = invalid. Throws InputError naming the
   // frame (and the model) for an empty image, an image of 2 or 4+ channels, an image whose size
   // differs from its camera's or from the model's input size (see require_input_size), and for
@@ -114,9 +118,9 @@ class LearnedModel {
   const FeaturePyramid& Features(const Frame& frame);
   const DepthPyramid& Depth(const Frame& frame);
 
-  // Figures of the last network run (not updated by cache hits).
+  // Figures of the last frame the networks ran on (not updated by cache hits).
   const LearnedFrameStats& last_stats() const;
-  // Number of network runs so far (cache misses).
+  // Number of frames the networks have run on so far (frames that missed the cache).
   int64_t num_runs() const;
 
  private:

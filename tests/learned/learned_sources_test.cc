@@ -162,6 +162,35 @@ TEST(LearnedSourcesTest, BothSourcesShareOneNetworkRunPerFrame) {
   EXPECT_EQ(model->num_runs(), 3);
 }
 
+TEST(LearnedSourcesTest, EachNetworkRunsOnlyWhenItsOutputIsAskedFor) {
+  std::shared_ptr<LearnedModel> model = LoadSmall(WriteSmallModel("sources_lazy"));
+  std::unique_ptr<FeatureSource> features = MakeLearnedFeatureSource(model);
+  std::unique_ptr<DepthSource> depth = MakeLearnedDepthSource(model);
+  const Frame f0 = TestFrame(128, 64, 0), f1 = TestFrame(128, 64, 1);
+  // Hand-made features with learned depth: the feature network never runs.
+  const DepthPyramid d0 = depth->Compute(f0, 4);
+  EXPECT_EQ(model->num_runs(), 1);
+  EXPECT_TRUE(model->last_stats().ran_depth_network);
+  EXPECT_FALSE(model->last_stats().ran_feature_network);
+  const double depth_ms = model->last_stats().network_ms;
+  EXPECT_GT(depth_ms, 0.0);
+  // Asking for the features of the same frame adds the feature network, same frame.
+  features->Compute(f0, 4);
+  EXPECT_EQ(model->num_runs(), 1);
+  EXPECT_TRUE(model->last_stats().ran_feature_network);
+  EXPECT_GT(model->last_stats().network_ms, depth_ms);
+  // The depth is not recomputed, and equals a fresh model's.
+  EXPECT_EQ(depth->Compute(f0, 4).levels[0].vector(), d0.levels[0].vector());
+  const DepthPyramid fresh =
+      MakeLearnedDepthSource(LoadSmall(WriteSmallModel("sources_lazy2")))->Compute(f0, 4);
+  EXPECT_EQ(fresh.levels[0].vector(), d0.levels[0].vector());
+  // Learned features with true depth: the depth network never runs.
+  features->Compute(f1, 4);
+  EXPECT_EQ(model->num_runs(), 2);
+  EXPECT_FALSE(model->last_stats().ran_depth_network);
+  EXPECT_TRUE(model->last_stats().ran_feature_network);
+}
+
 TEST(LearnedSourcesTest, DeterministicAcrossLoads) {
   const std::string path = WriteSmallModel("sources_determinism", 5);
   const Frame frame = TestFrame(128, 64, 3);
@@ -256,11 +285,18 @@ TEST(LearnedSourcesTest, PrintsNetworkTimeAtDefaultSize) {
   options.num_threads = 2;
   std::shared_ptr<LearnedModel> model = LoadLearnedModel(options);
   std::vector<double> ms;
+  std::vector<double> depth_ms;
   for (int i = 0; i < 5; ++i) {
-    model->Depth(TestFrame(416, 128, i));
+    const Frame frame = TestFrame(416, 128, i);
+    model->Depth(frame);
+    if (i >= 1) depth_ms.push_back(model->last_stats().network_ms);
+    model->Features(frame);
     if (i >= 1) ms.push_back(model->last_stats().network_ms);
   }
   std::sort(ms.begin(), ms.end());
+  std::sort(depth_ms.begin(), depth_ms.end());
+  std::printf("depth network alone (hand-made features): median %.1f ms per frame\n",
+              depth_ms[depth_ms.size() / 2]);
   // With another busy process on the 2 cores, OpenMP's spinning makes 2 threads far slower
   // unless OMP_WAIT_POLICY=PASSIVE is set in the environment (DESIGN.md).
   std::printf(
