@@ -139,7 +139,8 @@ void PrintComparison(const apps::SequenceRunResult& result, const apps::RunOutpu
   if (result.has_windowed()) {
     std::cout << "; window: " << k["ba_optimized"].AsInt() << " solves kept, "
               << k["ba_failed"].AsInt() << " not, " << k["marginalized"].AsInt()
-              << " keyframes marginalised, at most " << k["max_points"].AsInt() << " points / "
+              << " keyframes left the window (marginalised; dropped with backend.marginalization "
+                 "false), at most " << k["max_points"].AsInt() << " points / "
               << k["max_residual_blocks"].AsInt() << " residual blocks";
   }
   std::cout << "\n";
