@@ -274,23 +274,42 @@ void LearnedModel::Impl::StoreFeatures(const Frame& frame,
   for (int l = 0; l < o.num_levels; ++l) {
     const int w = width >> l, h = height >> l;
     // Features: non-finite values -> 0; their pixels (and non-finite logits) are never selected.
+    // One pass in plain loops over the network's output, read as H x W x C (the channels_last
+    // layout the networks give, so no copy): the same result as tensor operations, but those
+    // took ~7 ms per frame at 416 x 128 in layout conversions and temporaries.
     const int c = static_cast<int>(feature_levels[l].size(1));
-    torch::Tensor f = feature_levels[l].to(torch::kFloat32).contiguous().view({c, h, w});
-    const torch::Tensor f_bad = ~torch::isfinite(f);
-    stats.nonfinite_features += f_bad.sum().item<int64_t>();
-    f = torch::where(f_bad, torch::zeros_like(f), f).contiguous();
-    torch::Tensor logits = logit_levels[l].to(torch::kFloat32).contiguous().view({1, 1, h, w});
-    const torch::Tensor l_bad = ~torch::isfinite(logits);
-    stats.nonfinite_logits += l_bad.sum().item<int64_t>();
-    const torch::Tensor pixel_bad = l_bad | f_bad.any(0).view({1, 1, h, w});
-    logits = torch::where(pixel_bad, torch::full_like(logits, -1e30f), logits);
-    torch::Tensor mask = learned::HardTopMask(logits, o.rho[l]);
-    mask = torch::where(pixel_bad, torch::zeros_like(mask), mask).contiguous();
-
-    FeatureLevel level(w, h, c, frame.camera.PyramidLevel(l));
-    std::memcpy(level.data.data(), f.data_ptr<float>(), sizeof(float) * c * w * h);
-    level.mask.resize(static_cast<size_t>(w) * h);
-    std::memcpy(level.mask.data(), mask.data_ptr<uint8_t>(), level.mask.size());
+    const size_t n = static_cast<size_t>(w) * h;
+    const torch::Tensor f_hwc =
+        feature_levels[l].to(torch::kFloat32).permute({0, 2, 3, 1}).contiguous();
+    const torch::Tensor l_hw = logit_levels[l].to(torch::kFloat32).contiguous();
+    const float* f_src = f_hwc.data_ptr<float>();
+    const float* l_src = l_hw.data_ptr<float>();
+    FeatureLevel level(w, h, c, frame.camera.PyramidLevel(l));  // zeros
+    std::vector<uint8_t> pixel_bad(n, 0);
+    std::vector<float> logits(n);
+    for (size_t p = 0; p < n; ++p) {
+      const float* v = f_src + p * c;
+      for (int ch = 0; ch < c; ++ch) {
+        if (std::isfinite(v[ch])) {
+          level.data[static_cast<size_t>(ch) * n + p] = v[ch];
+        } else {
+          ++stats.nonfinite_features;
+          pixel_bad[p] = 1;
+        }
+      }
+      if (!std::isfinite(l_src[p])) {
+        ++stats.nonfinite_logits;
+        pixel_bad[p] = 1;
+      }
+      logits[p] = pixel_bad[p] ? -1e30f : l_src[p];
+    }
+    const torch::Tensor mask =
+        learned::HardTopMask(torch::from_blob(logits.data(), {1, 1, h, w}, torch::kFloat32),
+                             o.rho[l])
+            .contiguous();
+    const uint8_t* m = mask.data_ptr<uint8_t>();
+    level.mask.resize(n);
+    for (size_t p = 0; p < n; ++p) level.mask[p] = pixel_bad[p] ? 0 : m[p];
     level.ZScore();
     features.levels.push_back(std::move(level));
   }
