@@ -231,10 +231,7 @@ void LearnedModel::Impl::Run(const Frame& frame, bool want_features, bool want_d
                        ": TorchScript forward failed: " + msg.substr(0, msg.find('\n')));
     }
     learned::ScriptOutputs s = learned::CheckScriptOutputs(output, o, width, height, What(frame));
-    // Counted once: a module that has run leaves nothing to compute for this frame.
-    stats.nonfinite_depth = 0;
-    stats.nonfinite_features = 0;
-    stats.nonfinite_logits = 0;
+    // Both outputs at once, so the module runs only on a new frame (stats freshly zeroed).
     StoreDepth(frame, s.depth);
     StoreFeatures(frame, s.features, s.mask_logits);
     stats.ran_depth_network = true;
