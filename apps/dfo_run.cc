@@ -140,8 +140,9 @@ void PrintComparison(const apps::SequenceRunResult& result, const apps::RunOutpu
     std::cout << "; window: " << k["ba_optimized"].AsInt() << " solves kept, "
               << k["ba_failed"].AsInt() << " not, " << k["marginalized"].AsInt()
               << " keyframes left the window (marginalised; dropped with backend.marginalization "
-                 "false), at most " << k["max_points"].AsInt() << " points / "
-              << k["max_residual_blocks"].AsInt() << " residual blocks";
+                 "false), at most "
+              << k["max_points"].AsInt() << " points / " << k["max_residual_blocks"].AsInt()
+              << " residual blocks";
   }
   std::cout << "\n";
 

@@ -69,10 +69,10 @@ struct LearnedModel::Impl {
   LearnedModelOptions options;
   LearnedModelInfo info;
   learned::LoadedModel model;
-  // The frame whose outputs are held, and which of them are (each network runs on demand, once
-  // per frame: a hand-made-feature run never pays for the feature network).
+  // The frame whose outputs are held (valid while either flag is set), and which of them are
+  // (each network runs on demand, once per frame: a hand-made-feature run never pays for the
+  // feature network).
   CacheKey key;
-  bool has_key = false;
   bool has_features = false;
   bool has_depth = false;
   FeaturePyramid features;
@@ -179,15 +179,15 @@ void LearnedModel::Impl::Run(const Frame& frame, bool want_features, bool want_d
   k.height = height;
   k.channels = image.channels();
   k.hash = HashBytes(image.data(), image.size());
-  if (!has_key || !(k == key)) {
-    has_key = false;
+  const bool same_frame = (has_features || has_depth) && k == key;
+  if (!same_frame) {
     has_features = false;
     has_depth = false;
   }
   const bool need_features = want_features && !has_features;
   const bool need_depth = want_depth && !has_depth;
   if (!need_features && !need_depth) return;
-  if (!has_key) {
+  if (!same_frame) {
     // A new frame: its figures start from zero.
     stats = LearnedFrameStats();
     stats.frame_index = frame.index;
@@ -240,7 +240,6 @@ void LearnedModel::Impl::Run(const Frame& frame, bool want_features, bool want_d
   stats.network_ms +=
       std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start).count();
   key = k;
-  has_key = true;
 }
 
 void LearnedModel::Impl::StoreDepth(const Frame& frame,

@@ -87,12 +87,12 @@ struct LearnedModelInfo {
 // Figures of the last frame the networks ran on.
 struct LearnedFrameStats {
   int frame_index = -1;
-  double network_ms = 0.0;         // wall time of the networks run on it, incl. conversions
+  double network_ms = 0.0;           // wall time of the networks run on it, incl. conversions
   bool ran_depth_network = false;    // the depth network ran on this frame
   bool ran_feature_network = false;  // the feature network ran on this frame
-  int64_t nonfinite_depth = 0;     // depth values replaced by 0 (all levels)
-  int64_t nonfinite_features = 0;  // feature values replaced by 0 (all levels and channels)
-  int64_t nonfinite_logits = 0;    // mask logits treated as "never select"
+  int64_t nonfinite_depth = 0;       // depth values replaced by 0 (all levels)
+  int64_t nonfinite_features = 0;    // feature values replaced by 0 (all levels and channels)
+  int64_t nonfinite_logits = 0;      // mask logits treated as "never select"
 };
 
 // One loaded model, shared by the learned feature and depth sources. Not thread-safe.
@@ -110,11 +110,12 @@ class LearnedModel {
   const LearnedModelOptions& options() const;
 
   // The feature / depth network's outputs for `frame` at all model levels (each network runs
-  // on the first call for a frame; a second call for the same frame returns the stored result). Features are z-scored per channel and level and carry the
-  // hard top-rho selection mask; depth is in metres, 0 = invalid. Throws InputError naming the
-  // frame (and the model) for an empty image, an image of 2 or 4+ channels, an image whose size
-  // differs from its camera's or from the model's input size (see require_input_size), and for
-  // TorchScript outputs of the wrong shape.
+  // on the first call for a frame; a second call for the same frame returns the stored result).
+  // Features are z-scored per channel and level and carry the hard top-rho selection mask;
+  // depth is in metres, 0 = invalid. Throws InputError naming the frame (and the model) for an
+  // empty image, an image of 2 or 4+ channels, an image whose size differs from its camera's or
+  // from the model's input size (see require_input_size), and for TorchScript outputs of the
+  // wrong shape.
   const FeaturePyramid& Features(const Frame& frame);
   const DepthPyramid& Depth(const Frame& frame);
 
