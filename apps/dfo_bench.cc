@@ -214,6 +214,7 @@ void TrackerBenchmark(const Args& args) {
   std::vector<double> features, depth, tracking, process;
   Trajectory estimate;
   int lost = 0;
+  const apps::OtherLoadMeter other_load;
   const auto start = std::chrono::steady_clock::now();
   for (const Frame& frame : frames) {
     const auto t0 = std::chrono::steady_clock::now();
@@ -241,6 +242,7 @@ void TrackerBenchmark(const Args& args) {
   PrintStage("process", process);
   std::printf("  frames/s   %.1f (Frontend::Process only, frames in memory)\n",
               static_cast<double>(args.frames) / seconds);
+  std::printf("  machine    %s\n", other_load.Describe().c_str());
   // Accuracy as a sanity check of what was timed.
   try {
     const apps::TrajectoryEvaluation e = apps::EvaluateTrajectory(sequence.GroundTruth(), estimate);
@@ -283,6 +285,7 @@ void WholeRunBenchmark(const Args& args) {
   apps::SequenceRunOptions run;
   run.label = "dfo_bench whole run";
   run.progress_interval_s = 10.0;
+  const apps::OtherLoadMeter other_load;
   const apps::SequenceRunResult result = apps::RunSequence(provider, frontend.get(), run);
   if (!result.error.empty()) throw InputError(result.error);
   std::vector<double> load, total;
@@ -295,6 +298,7 @@ void WholeRunBenchmark(const Args& args) {
   PrintStage("load", load);
   PrintStage("per frame", total);
   std::printf("  frames/s   %.1f\n", static_cast<double>(result.frames.size()) / result.wall_s);
+  std::printf("  machine    %s\n", other_load.Describe().c_str());
   const apps::RunEvaluation e = apps::EvaluateRun(result);
   if (e.available) {
     std::printf("  accuracy   Sim3 ATE rmse %.4f m = %.3f %% of the %.1f m path, %d lost\n",

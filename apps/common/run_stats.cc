@@ -1,10 +1,15 @@
 #include "apps/common/run_stats.h"
 
 #include <sys/resource.h>
+#include <unistd.h>
 
 #include <algorithm>
 #include <cmath>
+#include <fstream>
 #include <limits>
+#include <sstream>
+#include <string>
+#include <thread>
 
 namespace dfo::apps {
 
@@ -52,6 +57,69 @@ double PeakRssMb() {
   struct rusage usage {};
   if (getrusage(RUSAGE_SELF, &usage) != 0) return 0.0;
   return static_cast<double>(usage.ru_maxrss) / 1024.0;  // Linux reports kilobytes
+}
+
+namespace {
+
+// Busy CPU seconds of all cores since boot (the first line of /proc/stat: everything but idle and
+// iowait), NaN when unreadable.
+double MachineBusySeconds() {
+  std::ifstream stat("/proc/stat");
+  std::string cpu;
+  unsigned long long user = 0, nice = 0, system = 0, idle = 0, iowait = 0, irq = 0, softirq = 0,
+                     steal = 0;
+  if (!(stat >> cpu >> user >> nice >> system >> idle >> iowait >> irq >> softirq >> steal) ||
+      cpu != "cpu") {
+    return std::numeric_limits<double>::quiet_NaN();
+  }
+  const long ticks = sysconf(_SC_CLK_TCK);
+  if (ticks <= 0) return std::numeric_limits<double>::quiet_NaN();
+  return static_cast<double>(user + nice + system + irq + softirq + steal) /
+         static_cast<double>(ticks);
+}
+
+double SelfCpuSeconds() {
+  struct rusage usage {};
+  if (getrusage(RUSAGE_SELF, &usage) != 0) return 0.0;
+  auto seconds = [](const timeval& t) {
+    return static_cast<double>(t.tv_sec) + 1e-6 * static_cast<double>(t.tv_usec);
+  };
+  return seconds(usage.ru_utime) + seconds(usage.ru_stime);
+}
+
+double WallSeconds() {
+  return std::chrono::duration<double>(std::chrono::steady_clock::now().time_since_epoch())
+      .count();
+}
+
+}  // namespace
+
+OtherLoadMeter::OtherLoadMeter()
+    : start_wall_s_(WallSeconds()),
+      start_busy_s_(MachineBusySeconds()),
+      start_self_s_(SelfCpuSeconds()) {}
+
+double OtherLoadMeter::OtherFraction() const {
+  const double wall = WallSeconds() - start_wall_s_;
+  const unsigned cores = std::max(1u, std::thread::hardware_concurrency());
+  const double other =
+      (MachineBusySeconds() - start_busy_s_) - (SelfCpuSeconds() - start_self_s_);
+  if (!(wall > 0.0) || std::isnan(other)) return std::numeric_limits<double>::quiet_NaN();
+  return std::clamp(other / (wall * cores), 0.0, 1.0);
+}
+
+std::string OtherLoadMeter::Describe() const {
+  const double fraction = OtherFraction();
+  const unsigned cores = std::max(1u, std::thread::hardware_concurrency());
+  std::ostringstream out;
+  if (std::isnan(fraction)) {
+    out << "load of other processes unknown (/proc/stat unreadable)";
+    return out.str();
+  }
+  out << "other processes used " << std::lround(100.0 * fraction) << "% of the " << cores
+      << " cores meanwhile";
+  if (fraction > 0.10) out << ": NOT an idle machine, these times are slower than idle ones";
+  return out.str();
 }
 
 }  // namespace dfo::apps

@@ -1,10 +1,11 @@
 // Small measurement helpers for the apps: timing statistics (median, 95th percentile) of per-frame
-// stage times, and the process's peak resident memory.
+// stage times, the process's peak resident memory and the other processes' load.
 #ifndef DFO_APPS_COMMON_RUN_STATS_H_
 #define DFO_APPS_COMMON_RUN_STATS_H_
 
 #include <chrono>
 #include <cstddef>
+#include <string>
 #include <vector>
 
 #include "dfo_io/json.h"
@@ -32,6 +33,25 @@ io::JsonValue TimingToJson(const TimingSummary& summary);
 
 // Peak resident set size of this process in MiB (getrusage ru_maxrss), 0 when unknown.
 double PeakRssMb();
+
+// How busy other processes kept the cores while a benchmark ran: the machine's busy CPU time
+// (/proc/stat) minus this process's own (getrusage) between construction and Describe(). The
+// benchmarks print it beside their times, which are not comparable when other work shares the
+// cores (e.g. a training run makes the networks ~1.4x slower on 2 cores).
+class OtherLoadMeter {
+ public:
+  OtherLoadMeter();  // starts measuring
+  // Fraction of all cores' time used by other processes since construction (0 = idle machine;
+  // NaN when /proc/stat cannot be read).
+  double OtherFraction() const;
+  // "other processes used 3% of the 2 cores meanwhile" (+ a warning above 10%).
+  std::string Describe() const;
+
+ private:
+  double start_wall_s_ = 0.0;
+  double start_busy_s_ = 0.0;  // machine-wide, NaN when unknown
+  double start_self_s_ = 0.0;
+};
 
 // Milliseconds since `start` on the steady clock.
 inline double MillisecondsSince(std::chrono::steady_clock::time_point start) {
