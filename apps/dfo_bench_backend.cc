@@ -47,6 +47,12 @@ options:
   --time-limit S         WindowOptions::max_solver_time_s (default: the option's default)
   --depth-prior W        WindowOptions::depth_prior_weight (default 0)
   --level L              WindowOptions::pyramid_level (default 0)
+  --patch K              WindowOptions::patch_size (default 3)
+  --max-stretch S        WindowOptions::max_patch_stretch (default 1.5)
+  --descriptor NAME      hand-made features: intensity, intensity_gradients (default) or rich
+  --blur S               hand-made features: blur_sigma_px (default 1)
+  --perturbation F       scale of the keyframe pose perturbation (default 1: 1 cm and 0.1 deg
+                         per axis; 0 = ground-truth poses, to see where the BA's optimum lies)
   --fej                  WindowOptions::first_estimate_jacobians = true
   --prior-weight W       WindowOptions::prior_weight (default 1)
   --min-point-fraction F WindowOptions::min_point_fraction (1 = always the oldest leaves)
@@ -62,6 +68,8 @@ struct Args {
   int keyframes = 40;
   int step = 3;
   int seed = 1;
+  double perturbation = 1.0;
+  HandmadeFeatureOptions features;
   bool verbose = false;
   WindowOptions window;
 };
@@ -102,6 +110,17 @@ Args Parse(int argc, char** argv) {
       args.window.depth_prior_weight = std::atof(next());
     } else if (flag == "--level") {
       args.window.pyramid_level = ParseInt(flag, next());
+    } else if (flag == "--patch") {
+      args.window.patch_size = ParseInt(flag, next());
+    } else if (flag == "--max-stretch") {
+      args.window.max_patch_stretch = std::atof(next());
+    } else if (flag == "--descriptor") {
+      args.features.descriptor = next();
+    } else if (flag == "--blur") {
+      args.features.blur_sigma_px = std::atof(next());
+    } else if (flag == "--perturbation") {
+      args.perturbation = std::atof(next());
+      if (!(args.perturbation >= 0.0)) throw InputError("--perturbation must be >= 0");
     } else if (flag == "--fej") {
       args.window.first_estimate_jacobians = true;
     } else if (flag == "--prior-weight") {
@@ -124,6 +143,7 @@ Args Parse(int argc, char** argv) {
   }
   if (args.keyframes < 2 || args.step < 1) throw InputError("--keyframes >= 2 and --step >= 1");
   args.window.Check();
+  args.features.Check();
   return args;
 }
 
@@ -132,7 +152,7 @@ int Run(const Args& args) {
   synthetic.seed = static_cast<uint64_t>(args.seed);
   synthetic.num_frames = (args.keyframes - 1) * args.step + 1;
   const SyntheticSequence sequence(synthetic);
-  HandmadeFeatureSource features;
+  HandmadeFeatureSource features(args.features);
   auto depth = MakeDepthSource("gt");
   std::mt19937 rng(7);
   std::normal_distribution<double> noise(0.0, 1.0);
@@ -153,16 +173,19 @@ int Run(const Args& args) {
     kf.features = features.Compute(frame, 4);
     kf.depth = depth->Compute(frame, 4);
     Vector6d xi;
-    for (int i = 0; i < 3; ++i) xi(i) = k == 0 ? 0.0 : 0.01 * noise(rng);
-    for (int i = 3; i < 6; ++i) xi(i) = k == 0 ? 0.0 : 0.1 * M_PI / 180.0 * noise(rng);
+    for (int i = 0; i < 3; ++i) xi(i) = k == 0 ? 0.0 : args.perturbation * 0.01 * noise(rng);
+    for (int i = 3; i < 6; ++i)
+      xi(i) = k == 0 ? 0.0 : args.perturbation * 0.1 * M_PI / 180.0 * noise(rng);
     kf.world_from_cam = rendered.world_from_cam * SE3d::Exp(xi);
     keyframes.push_back(std::move(kf));
   }
 
   WindowOptimizer window(args.window);
+  const apps::OtherLoadMeter other_load;
   std::vector<double> solve_ms, marg_ms, total_ms;
   int failures = 0, max_points = 0, max_blocks = 0;
   double last_trans_err = 0.0, last_rot_err = 0.0, last_scale = 1.0, last_scaled_err = 0.0;
+  std::vector<double> window_trans_err, window_rot_err, window_scaled_err;  // full windows
   for (KeyframeData& kf : keyframes) {
     const WindowResult result = window.AddKeyframe(std::move(kf));
     if (window.num_keyframes() < 2) continue;
@@ -197,10 +220,16 @@ int Run(const Args& args) {
       const Eigen::Vector3d gt_t = (gt_ref.Inverse() * sequence.WorldFromCam(index)).translation();
       last_scaled_err = std::max(last_scaled_err, (last_scale * est_t - gt_t).norm());
     }
+    if (result.marginalized_frame_index >= 0) {
+      window_trans_err.push_back(last_trans_err);
+      window_rot_err.push_back(last_rot_err);
+      window_scaled_err.push_back(last_scaled_err);
+    }
     if (args.verbose) {
       std::printf(
           "keyframe %4d: %s cost %10.1f -> %10.1f  BA %6.1f ms  marg %5.1f ms  "
-          "points %5d  blocks %6d  gated %4d  window error %.4f m %.4f deg (scale %.4f: %.4f m) %s\n",
+          "points %5d  blocks %6d  gated %4d  window error %.4f m %.4f deg (scale %.4f: %.4f m) "
+          "%s\n",
           poses.back().first, result.optimized ? "ok  " : "FAIL", result.initial_cost,
           result.final_cost, result.solve_ms, result.marginalization_ms, result.num_points,
           result.num_residual_blocks, result.num_gated_blocks, last_trans_err, last_rot_err,
@@ -231,12 +260,19 @@ int Run(const Args& args) {
               Percentile(marg_ms, 90));
   std::printf("  BA + marginalisation median %6.1f ms   p90 %7.1f ms\n", Percentile(total_ms, 50),
               Percentile(total_ms, 90));
+  std::printf("machine: %s\n", other_load.Describe().c_str());
   std::printf("window size: at most %d points, %d residual blocks; %d failed solves\n", max_points,
               max_blocks, failures);
   std::printf(
       "last window vs ground truth (relative to its oldest keyframe): max %.4f m, "
       "%.4f deg; after the window's scale (%.4f): max %.4f m\n",
       last_trans_err, last_rot_err, last_scale, last_scaled_err);
+  std::printf(
+      "every full window vs ground truth (max over its keyframes, relative to its oldest): median "
+      "%.4f m %.4f deg (%.4f m after its scale), p90 %.4f m %.4f deg (%.4f m)\n",
+      Percentile(window_trans_err, 50), Percentile(window_rot_err, 50),
+      Percentile(window_scaled_err, 50), Percentile(window_trans_err, 90),
+      Percentile(window_rot_err, 90), Percentile(window_scaled_err, 90));
   return 0;
 }
 

@@ -107,8 +107,8 @@ WarpSetup MakeSetup(const double* host_pose, const double* target_pose) {
 // windows fell into (measured: metres of drift on the synthetic sequence).
 struct Cell {
   bool clamp_x, clamp_y;
-  size_t i00;      // top-left pixel of the cell: x0 in [0, width - 2], so x0 + 1 is valid
-  double ax, ay;   // position inside the cell, in [0, 1]
+  size_t i00;     // top-left pixel of the cell: x0 in [0, width - 2], so x0 + 1 is valid
+  double ax, ay;  // position inside the cell, in [0, 1]
 };
 
 inline Cell CellAt(const PinholeCamera& cam, const Eigen::Vector3d& Y, int width, int height) {
@@ -148,8 +148,8 @@ inline Sample Interpolate(const float* plane, int width, const Cell& cell) {
 // dY/d d_host = [rho R_t^T, -R_t^T hat(Z_w)] and dY/d rho = b. With Q = dpi R_t^T (2 x 3):
 // rho Q, and -q^T hat(Z_w) = (Z_w x q)^T for each row q of Q.
 inline Eigen::Matrix<double, 2, 7> PixelJacobian(const WarpSetup& s, const PinholeCamera& cam,
-                                          const Eigen::Vector3d& Y, const Eigen::Vector3d& ray,
-                                          double inverse_depth) {
+                                                 const Eigen::Vector3d& Y,
+                                                 const Eigen::Vector3d& ray, double inverse_depth) {
   const Eigen::Matrix<double, 2, 3> dpi = cam.ProjectJacobian(Y);
   const Eigen::Matrix<double, 2, 3> q = dpi * s.Rt_T;
   const Eigen::Vector3d Zw = s.Rh * ray + inverse_depth * s.th;
@@ -165,15 +165,14 @@ inline Eigen::Matrix<double, 2, 7> PixelJacobian(const WarpSetup& s, const Pinho
 
 // Patch pixel k behind the target camera is compared against the z-scored mean (0): its C
 // residuals are the host values (no derivative).
-void FillBehindCamera(const double* host_patch, int k, int kk, int channels,
-                      double* residuals) {
+void FillBehindCamera(const double* host_patch, int k, int kk, int channels, double* residuals) {
   for (int c = 0; c < channels; ++c) residuals[c * kk + k] = host_patch[c * kk + k];
 }
 
 }  // namespace
 
 int FeatureMetricBlock::NumVisible(const double* host_pose, const double* target_pose,
-                                  double inverse_depth) const {
+                                   double inverse_depth) const {
   const WarpSetup s = MakeSetup(host_pose, target_pose);
   const int radius = patch_size / 2;
   const PinholeCamera& cam = target->camera;
@@ -193,6 +192,25 @@ int FeatureMetricBlock::NumVisible(const double* host_pose, const double* target
   return visible;
 }
 
+Eigen::Vector2d FeatureMetricBlock::WarpStretch(const double* host_pose, const double* target_pose,
+                                                double inverse_depth) const {
+  const WarpSetup s = MakeSetup(host_pose, target_pose);
+  const Eigen::Vector3d Y = s.target_R_host * center_ray + inverse_depth * s.b;
+  if (!(Y.z() > 1e-9)) return Eigen::Vector2d::Zero();
+  // p = pi(Y(u)) with dY/du = target_R_host diag(1 / fx, 1 / fy): the ray's pixel derivative at
+  // the point's (constant) inverse depth.
+  Eigen::Matrix<double, 3, 2> dY_du;
+  dY_du.col(0) = s.target_R_host.col(0) * ray_step_x;
+  dY_du.col(1) = s.target_R_host.col(1) * ray_step_y;
+  const Eigen::Matrix2d a = target->camera.ProjectJacobian(Y) * dY_du;
+  // Singular values of a 2 x 2 matrix in closed form: with e, f, g, h below,
+  // sigma = sqrt(e^2 + h^2) +- sqrt(f^2 + g^2).
+  const double e = 0.5 * (a(0, 0) + a(1, 1)), f = 0.5 * (a(0, 0) - a(1, 1));
+  const double g = 0.5 * (a(1, 0) + a(0, 1)), h = 0.5 * (a(1, 0) - a(0, 1));
+  const double q = std::hypot(e, h), r = std::hypot(f, g);
+  return Eigen::Vector2d(q + r, std::abs(q - r));
+}
+
 bool FeatureMetricCost::EvaluateTangent(const double* host_pose, const double* target_pose,
                                         double inverse_depth, double* residuals,
                                         double* jacobian_host, double* jacobian_target,
@@ -205,9 +223,9 @@ bool FeatureMetricCost::EvaluateTangent(const double* host_pose, const double* t
 // conversion is folded into the 2 x 6 geometric Jacobian of each patch pixel (2 x 7 per pose),
 // so it costs O(K^2), not O(C K^2), per block.
 bool FeatureMetricBlock::Evaluate(const double* host_pose, const double* target_pose,
-                                     double inverse_depth, double* residuals, double* jacobian_host,
-                                     double* jacobian_target, double* jacobian_inverse_depth,
-                                     bool ambient) const {
+                                  double inverse_depth, double* residuals, double* jacobian_host,
+                                  double* jacobian_target, double* jacobian_inverse_depth,
+                                  bool ambient) const {
   const WarpSetup s = MakeSetup(host_pose, target_pose);
   const int pose_cols = ambient ? kPoseAmbientSize : kPoseTangentSize;
   Matrix6x7d minus_host = Matrix6x7d::Zero(), minus_target = Matrix6x7d::Zero();
@@ -222,7 +240,7 @@ bool FeatureMetricBlock::Evaluate(const double* host_pose, const double* target_
   const PinholeCamera& cam = target->camera;
   const bool need_pose = jacobian_host != nullptr || jacobian_target != nullptr;
   const bool need_jac = need_pose || jacobian_inverse_depth != nullptr;
-    bool finite = true;
+  bool finite = true;
 
   for (int dy = -radius; dy <= radius; ++dy) {
     for (int dx = -radius; dx <= radius; ++dx) {
@@ -291,14 +309,14 @@ bool FeatureMetricBlock::Evaluate(const double* host_pose, const double* target_
 // with W = sum_c (gx, gy)^T (gx, gy) and w = sum_c (gx, gy)^T r: the per-channel work is six
 // products instead of a 8 x 8 outer product per row.
 bool FeatureMetricBlock::EvaluateGram(const double* host_pose, const double* target_pose,
-                                     double inverse_depth, double* residuals,
-                                     Eigen::Matrix<double, 8, 8>* gram) const {
+                                      double inverse_depth, double* residuals,
+                                      Eigen::Matrix<double, 8, 8>* gram) const {
   const WarpSetup s = MakeSetup(host_pose, target_pose);
   const int kk = patch_size * patch_size;
   const int channels = target->channels;
   const int width = target->width, height = target->height;
   const PinholeCamera& cam = target->camera;
-    Eigen::Matrix<double, 7, 7> g77 = Eigen::Matrix<double, 7, 7>::Zero();
+  Eigen::Matrix<double, 7, 7> g77 = Eigen::Matrix<double, 7, 7>::Zero();
   Eigen::Matrix<double, 7, 1> g7r = Eigen::Matrix<double, 7, 1>::Zero();
   double grr = 0.0;
   for (int k = 0; k < kk; ++k) {
@@ -311,8 +329,7 @@ bool FeatureMetricBlock::EvaluateGram(const double* host_pose, const double* tar
     }
     const Cell cell = CellAt(cam, Y, width, height);
     // D = [d0 d1] = dp^T (7 x 2).
-    const Eigen::Matrix<double, 7, 2> d =
-        PixelJacobian(s, cam, Y, ray, inverse_depth).transpose();
+    const Eigen::Matrix<double, 7, 2> d = PixelJacobian(s, cam, Y, ray, inverse_depth).transpose();
     double wxx = 0.0, wxy = 0.0, wyy = 0.0, wxr = 0.0, wyr = 0.0, wrr = 0.0;
     for (int c = 0; c < channels; ++c) {
       const Sample v = Interpolate(target->Channel(c), width, cell);
@@ -368,8 +385,7 @@ bool CompressedFeatureMetricCost::Evaluate(double const* const* parameters, doub
   // Scratch for the full residual vector; per thread (Ceres evaluates blocks in parallel).
   thread_local std::vector<double> full;
   full.resize(static_cast<size_t>(n));
-  const bool any_jacobian =
-      jacobians != nullptr && (jacobians[0] || jacobians[1] || jacobians[2]);
+  const bool any_jacobian = jacobians != nullptr && (jacobians[0] || jacobians[1] || jacobians[2]);
   if (!any_jacobian) {
     if (!block_.Evaluate(host_pose, target_pose, inverse_depth, full.data(), nullptr, nullptr,
                          nullptr, /*ambient=*/false)) {

@@ -79,6 +79,12 @@ struct FeatureMetricBlock {
   bool EvaluateGram(const double* host_pose, const double* target_pose, double inverse_depth,
                     double* residuals, Eigen::Matrix<double, 8, 8>* gram) const;
   int NumVisible(const double* host_pose, const double* target_pose, double inverse_depth) const;
+  // How the warp stretches the patch: the singular values (largest first) of the 2 x 2
+  // derivative of the target pixel with respect to the host pixel at the patch centre (1, 1 when
+  // the target sees the patch at the host's scale; 2, 2 when it is twice as close). {0, 0} when
+  // the centre is behind the target camera.
+  Eigen::Vector2d WarpStretch(const double* host_pose, const double* target_pose,
+                              double inverse_depth) const;
 };
 
 // Residual block of one point (hosted in h) into one target keyframe t. Parameter blocks:
@@ -107,6 +113,10 @@ class FeatureMetricCost : public ceres::CostFunction {
   // Number of patch pixels whose projection lies inside the target at these parameters.
   int NumVisible(const double* host_pose, const double* target_pose, double inverse_depth) const {
     return block_.NumVisible(host_pose, target_pose, inverse_depth);
+  }
+  Eigen::Vector2d WarpStretch(const double* host_pose, const double* target_pose,
+                              double inverse_depth) const {
+    return block_.WarpStretch(host_pose, target_pose, inverse_depth);
   }
 
   // The 8 x 8 Gram matrix of the block's N x 8 matrix [A c r] (A: tangent host Jacobian N x 6,

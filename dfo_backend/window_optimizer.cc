@@ -6,6 +6,7 @@
 #include <array>
 #include <chrono>
 #include <cmath>
+#include <limits>
 #include <map>
 #include <sstream>
 
@@ -98,6 +99,8 @@ void WindowOptions::Check() const {
   Require(pyramid_level >= 0, "window.pyramid_level", pyramid_level, ">= 0");
   Require(patch_size >= 1 && patch_size <= 9 && patch_size % 2 == 1, "window.patch_size",
           patch_size, "odd and in [1, 9]");
+  Require(std::isfinite(max_patch_stretch) && max_patch_stretch > 1.0, "window.max_patch_stretch",
+          max_patch_stretch, "> 1");
   Require(points_per_keyframe >= 1 && points_per_keyframe <= 100000, "window.points_per_keyframe",
           points_per_keyframe, "in [1, 100000]");
   Require(loss == "huber" || loss == "cauchy", "window.loss", loss, "one of {huber, cauchy}");
@@ -277,12 +280,15 @@ void WindowOptimizer::SelectPoints(KeyframeState* kf) {
 // Blocks for every (point, target) pair that involves the new keyframe and is visible.
 void WindowOptimizer::ConnectNewKeyframe(KeyframeState* new_kf) {
   const int full = options_.patch_size * options_.patch_size;
+  const double max_stretch = options_.max_patch_stretch;
   for (auto& p : points_) {
     KeyframeState* host = FindKeyframe(p->host_id);
     const Eigen::Vector2d uv(p->x, p->y);
     auto try_add = [&](KeyframeState* target) {
       auto cost = std::make_unique<FeatureMetricCost>(&target->level, host->level.camera, uv,
                                                       options_.patch_size, p->patch);
+      const Eigen::Vector2d stretch = cost->WarpStretch(host->pose, target->pose, p->inverse_depth);
+      if (!(stretch(0) <= max_stretch && stretch(1) >= 1.0 / max_stretch)) return;
       if (cost->NumVisible(host->pose, target->pose, p->inverse_depth) == full) {
         p->residuals[target->id] = std::move(cost);
       }
@@ -395,8 +401,8 @@ bool WindowOptimizer::Solve(int max_iterations, double* initial_cost, double* fi
       owned_costs.push_back(
           std::make_unique<ceres::AutoDiffCostFunction<RelativePosePrior, 6, 7, 7>>(
               new RelativePosePrior(a_from_b, options_.pose_prior_weight)));
-      problem.AddResidualBlock(owned_costs.back().get(), nullptr,
-                               pose_of.at(keyframes_[i - 1]->id), pose_of.at(keyframes_[i]->id));
+      problem.AddResidualBlock(owned_costs.back().get(), nullptr, pose_of.at(keyframes_[i - 1]->id),
+                               pose_of.at(keyframes_[i]->id));
     }
   }
   if (prior_) {
@@ -591,8 +597,8 @@ WindowResult WindowOptimizer::AddKeyframe(KeyframeData data) {
     kf->frontend_pose = data.world_from_cam;
   } else {
     const KeyframeState& newest = *keyframes_.back();
-    kf->frontend_pose = newest.frontend_pose *
-                        (PoseFromParameters(newest.pose).Inverse() * data.world_from_cam);
+    kf->frontend_pose =
+        newest.frontend_pose * (PoseFromParameters(newest.pose).Inverse() * data.world_from_cam);
   }
   if (options_.coarse_iterations > 0) kf->coarse = std::move(data.features.levels[level + 1]);
   kf->level = std::move(f);

@@ -223,6 +223,11 @@ ConfigSchema BuildSchema() {
   s.AddInt("window.patch_size", 3, "Patch side K in pixels at that level (K x K), odd")
       .Min(1)
       .Max(9);
+  s.AddDouble("window.max_patch_stretch", 1.5,
+              "Blocks only where the target sees the patch at a similar scale: both singular "
+              "values of the warp's derivative within [1 / this, this] (features compared at "
+              "different scales disagree: measured decimetres of bias with forward motion)")
+      .GreaterThan(1);
   s.AddInt("window.points_per_keyframe", 300, "Points selected per keyframe").Min(1).Max(100000);
   s.AddString("window.loss", "huber", "Robust loss of each residual block")
       .OneOf({"huber", "cauchy"});

@@ -46,6 +46,7 @@ WindowOptions WindowOptionsFromConfig(const io::Config& config) {
   o.pyramid_level = config.GetInt("window.pyramid_level");
   o.coarse_iterations = config.GetInt("window.coarse_iterations");
   o.patch_size = config.GetInt("window.patch_size");
+  o.max_patch_stretch = config.GetDouble("window.max_patch_stretch");
   o.points_per_keyframe = config.GetInt("window.points_per_keyframe");
   o.loss = config.GetString("window.loss");
   o.loss_scale = config.GetDouble("window.loss_scale");

@@ -3,12 +3,13 @@
 #include "dfo_backend/feature_metric_cost.h"
 
 #include <ceres/autodiff_cost_function.h>
+#include <ceres/crs_matrix.h>
 #include <ceres/gradient_checker.h>
 #include <ceres/loss_function.h>
-#include <ceres/crs_matrix.h>
 #include <ceres/problem.h>
 #include <gtest/gtest.h>
 
+#include <Eigen/SVD>
 #include <cmath>
 #include <random>
 
@@ -174,6 +175,64 @@ TEST(PoseManifoldTest, PlusJacobianMatchesFiniteDifferences) {
     manifold.Plus(x, dm, ym);
     for (int i = 0; i < 7; ++i) EXPECT_NEAR((yp[i] - ym[i]) / (2 * h), analytic(i, j), 1e-7);
   }
+}
+
+// The warp's stretch: 1 for the same view and for a roll about the optical axis; the inverse
+// depth ratio when the target moves along the ray of a point at the principal point (the patch
+// looks twice as large from half the distance), and its inverse moving away; the finite-difference
+// derivative of the warp elsewhere; 0 behind the camera.
+TEST(FeatureMetricCostTest, WarpStretchIsTheScaleOfTheWarp) {
+  const FeatureLevel level = SmoothLevel(64, 48, 2);
+  const PinholeCamera& cam = level.camera;
+  const Eigen::Vector2d centre(cam.cx, cam.cy);
+  auto patch = std::make_shared<const std::vector<double>>(
+      SampleHostPatch(level, static_cast<int>(centre.x()), static_cast<int>(centre.y()), 3));
+  FeatureMetricCost at_centre(
+      &level, cam, Eigen::Vector2d(std::floor(centre.x()), std::floor(centre.y())), 3, patch);
+  double host[7], target[7];
+  PoseToParameters(SE3d(), host);
+  const double rho = 0.1;  // 10 m
+  auto stretch = [&](const SE3d& world_from_target, const FeatureMetricCost& cost) {
+    PoseToParameters(world_from_target, target);
+    return cost.WarpStretch(host, target, rho);
+  };
+  Eigen::Vector2d s = stretch(SE3d(), at_centre);
+  EXPECT_NEAR(s(0), 1.0, 1e-12);
+  EXPECT_NEAR(s(1), 1.0, 1e-12);
+  s = stretch(SE3d(SO3d::Exp(Eigen::Vector3d(0, 0, 0.4)), Eigen::Vector3d::Zero()), at_centre);
+  EXPECT_NEAR(s(0), 1.0, 1e-12);
+  EXPECT_NEAR(s(1), 1.0, 1e-12);
+  // floor() moved the pixel off the principal point by < 1 px: the ray is still within 0.3 deg
+  // of the axis, so the stretch is the depth ratio to 1e-4.
+  s = stretch(SE3d(SO3d(), Eigen::Vector3d(0, 0, 5.0)), at_centre);
+  EXPECT_NEAR(s(0), 2.0, 1e-3);
+  EXPECT_NEAR(s(1), 2.0, 1e-3);
+  s = stretch(SE3d(SO3d(), Eigen::Vector3d(0, 0, -10.0)), at_centre);
+  EXPECT_NEAR(s(0), 0.5, 1e-3);
+  EXPECT_NEAR(s(1), 0.5, 1e-3);
+  s = stretch(SE3d(SO3d(), Eigen::Vector3d(0, 0, 12.0)), at_centre);
+  EXPECT_EQ(s(0), 0.0);
+  EXPECT_EQ(s(1), 0.0);
+
+  // Off-centre with a general motion: the singular values of the central-difference derivative
+  // of the warped patch centre.
+  const Eigen::Vector2d uv(9.0, 37.0);
+  FeatureMetricCost off(&level, cam, uv, 3, patch);
+  const SE3d world_from_target(SO3d::Exp(Eigen::Vector3d(0.05, -0.2, 0.1)),
+                               Eigen::Vector3d(0.8, -0.3, 3.0));
+  s = stretch(world_from_target, off);
+  auto warp = [&](const Eigen::Vector2d& u) {
+    const Eigen::Vector3d x_host = cam.Ray(u) / rho;
+    return cam.Project(world_from_target.Inverse() * x_host);
+  };
+  const double h = 1e-4;
+  Eigen::Matrix2d a;
+  a.col(0) = (warp(uv + Eigen::Vector2d(h, 0)) - warp(uv - Eigen::Vector2d(h, 0))) / (2 * h);
+  a.col(1) = (warp(uv + Eigen::Vector2d(0, h)) - warp(uv - Eigen::Vector2d(0, h))) / (2 * h);
+  const Eigen::Vector2d expected = Eigen::JacobiSVD<Eigen::Matrix2d>(a).singularValues();
+  EXPECT_NEAR(s(0), expected(0), 1e-6);
+  EXPECT_NEAR(s(1), expected(1), 1e-6);
+  EXPECT_GT(s(0) / s(1), 1.05);  // an anisotropic case
 }
 
 TEST(FeatureMetricCostTest, GradientCheckerPassesThroughTheManifold) {
