@@ -238,7 +238,7 @@ ConfigSchema BuildSchema() {
   s.AddString("window.linear_solver", "sparse_schur",
               "Ceres linear solver: SPARSE_SCHUR with SuiteSparse, or DENSE_SCHUR")
       .OneOf({"sparse_schur", "dense_schur"});
-  s.AddInt("window.max_iterations", 5,
+  s.AddInt("window.max_iterations", 3,
            "Levenberg-Marquardt iterations per solve (up to two solves per keyframe)")
       .Min(1);
   s.AddDouble("window.max_solver_time_s", 0.1,
