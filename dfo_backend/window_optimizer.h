@@ -77,7 +77,8 @@ struct WindowOptions {
   // [1 / max_patch_stretch, max_patch_stretch]. Features compared at different scales disagree
   // systematically (each pixel integrates a different footprint of the surface; blurs and
   // pyramid levels act in pixels), which biased the window's optimum by decimetres with forward
-  // motion. The gate is applied when a keyframe's blocks are created, at its frontend pose. It
+  // motion. The gate is applied once, when a block would be created (at the poses and inverse
+  // depths of that moment: the new keyframe's from the frontend, the others' from the window). It
   // also leaves out the near points' long links, the strongest parallax, so the basin is
   // narrower (tests/backend/window_optimizer_test.cc); measured on 5 synthetic sequences it
   // helps with learned and true depth and makes the BA ~1.5x faster (README). > 1 (a large value

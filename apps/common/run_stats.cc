@@ -87,20 +87,15 @@ double SelfCpuSeconds() {
   return seconds(usage.ru_utime) + seconds(usage.ru_stime);
 }
 
-double WallSeconds() {
-  return std::chrono::duration<double>(std::chrono::steady_clock::now().time_since_epoch())
-      .count();
-}
-
 }  // namespace
 
 OtherLoadMeter::OtherLoadMeter()
-    : start_wall_s_(WallSeconds()),
+    : start_(std::chrono::steady_clock::now()),
       start_busy_s_(MachineBusySeconds()),
       start_self_s_(SelfCpuSeconds()) {}
 
 double OtherLoadMeter::OtherFraction() const {
-  const double wall = WallSeconds() - start_wall_s_;
+  const double wall = MillisecondsSince(start_) / 1000.0;
   const unsigned cores = std::max(1u, std::thread::hardware_concurrency());
   const double other =
       (MachineBusySeconds() - start_busy_s_) - (SelfCpuSeconds() - start_self_s_);

@@ -48,7 +48,7 @@ class OtherLoadMeter {
   std::string Describe() const;
 
  private:
-  double start_wall_s_ = 0.0;
+  std::chrono::steady_clock::time_point start_;
   double start_busy_s_ = 0.0;  // machine-wide, NaN when unknown
   double start_self_s_ = 0.0;
 };
