@@ -374,6 +374,26 @@ CompressedFeatureMetricCost::CompressedFeatureMetricCost(const FeatureMetricCost
   num_full_residuals_ = cost->num_residuals();
 }
 
+bool CompressedFeatureMetricCost::Hit(const double* host_pose, const double* target_pose,
+                                      double inverse_depth) const {
+  if (!cache_.valid) return false;
+  const double* x = cache_.parameters;
+  // Bitwise equality (as Ceres hands back the values it evaluated at); NaN never matches.
+  for (int i = 0; i < kPoseAmbientSize; ++i) {
+    if (x[i] != host_pose[i] || x[kPoseAmbientSize + i] != target_pose[i]) return false;
+  }
+  return x[2 * kPoseAmbientSize] == inverse_depth;
+}
+
+bool CompressedFeatureMetricCost::CachedSquaredNorm(const double* host_pose,
+                                                    const double* target_pose,
+                                                    double inverse_depth,
+                                                    double* squared_norm) const {
+  if (!Hit(host_pose, target_pose, inverse_depth)) return false;
+  *squared_norm = cache_.squared_norm;
+  return true;
+}
+
 // Pivoted outer-product Cholesky of the Gram matrix over its 7 parameter columns, the residual
 // column (7) last and never a pivot (see the header).
 bool CompressedFeatureMetricCost::Evaluate(double const* const* parameters, double* residuals,
@@ -382,47 +402,68 @@ bool CompressedFeatureMetricCost::Evaluate(double const* const* parameters, doub
   const double* target_pose = parameters[1];
   const double inverse_depth = parameters[2][0];
   const int n = num_full_residuals_;
-  // Scratch for the full residual vector; per thread (Ceres evaluates blocks in parallel).
-  thread_local std::vector<double> full;
-  full.resize(static_cast<size_t>(n));
   const bool any_jacobian = jacobians != nullptr && (jacobians[0] || jacobians[1] || jacobians[2]);
+  const bool hit = Hit(host_pose, target_pose, inverse_depth);
   if (!any_jacobian) {
-    if (!block_.Evaluate(host_pose, target_pose, inverse_depth, full.data(), nullptr, nullptr,
-                         nullptr, /*ambient=*/false)) {
-      return false;
-    }
     double sq = 0.0;
-    for (double v : full) sq += v * v;
+    if (hit) {
+      sq = cache_.squared_norm;
+    } else {
+      // Scratch for the full residual vector; per thread (Ceres evaluates blocks in parallel).
+      thread_local std::vector<double> full;
+      full.resize(static_cast<size_t>(n));
+      if (!block_.Evaluate(host_pose, target_pose, inverse_depth, full.data(), nullptr, nullptr,
+                           nullptr, /*ambient=*/false)) {
+        return false;
+      }
+      for (double v : full) sq += v * v;
+    }
     std::fill_n(residuals, kNumResiduals, 0.0);
     residuals[0] = std::sqrt(sq);
     return std::isfinite(residuals[0]);
   }
-  Eigen::Matrix<double, 8, 8> s;  // the Gram matrix, then the running Schur complement
-  if (!block_.EvaluateGram(host_pose, target_pose, inverse_depth, full.data(), &s)) return false;
   // R: row i = the i-th row of L7^T in the original column order (zero rows past the rank).
-  Eigen::Matrix<double, 7, 7, Eigen::RowMajor> r_factor = Eigen::Matrix<double, 7, 7>::Zero();
-  Eigen::Matrix<double, 8, 1> r_c = Eigen::Matrix<double, 8, 1>::Zero();
-  const double max_diagonal = s.diagonal().head<7>().maxCoeff();
-  const double floor = 1e-15 * max_diagonal;
-  bool done[7] = {false, false, false, false, false, false, false};
-  for (int i = 0; i < 7; ++i) {
-    int p = -1;
-    for (int j = 0; j < 7; ++j) {
-      if (!done[j] && (p < 0 || s(j, j) > s(p, p))) p = j;
+  using Factor = Eigen::Matrix<double, 7, 7, Eigen::RowMajor>;
+  Eigen::Map<Factor> r_factor(cache_.factor);
+  Eigen::Map<Eigen::Matrix<double, 8, 1>> r_c(cache_.residuals);
+  if (!hit) {
+    cache_.valid = false;
+    thread_local std::vector<double> full;
+    full.resize(static_cast<size_t>(n));
+    Eigen::Matrix<double, 8, 8> s;  // the Gram matrix, then the running Schur complement
+    if (!block_.EvaluateGram(host_pose, target_pose, inverse_depth, full.data(), &s)) return false;
+    double sq = 0.0;
+    for (double v : full) sq += v * v;
+    r_factor.setZero();
+    r_c.setZero();
+    const double max_diagonal = s.diagonal().head<7>().maxCoeff();
+    const double floor = 1e-15 * max_diagonal;
+    bool done[7] = {false, false, false, false, false, false, false};
+    for (int i = 0; i < 7; ++i) {
+      int p = -1;
+      for (int j = 0; j < 7; ++j) {
+        if (!done[j] && (p < 0 || s(j, j) > s(p, p))) p = j;
+      }
+      if (!(s(p, p) > floor) || !(max_diagonal > 0.0)) break;
+      done[p] = true;
+      const double pivot = std::sqrt(s(p, p));
+      Eigen::Matrix<double, 8, 1> column = s.col(p) / pivot;
+      for (int j = 0; j < 7; ++j) {
+        if (done[j] && j != p) column(j) = 0.0;
+      }
+      column(p) = pivot;
+      r_factor.row(i) = column.head<7>().transpose();
+      r_c(i) = column(7);
+      s.noalias() -= column * column.transpose();
     }
-    if (!(s(p, p) > floor) || !(max_diagonal > 0.0)) break;
-    done[p] = true;
-    const double pivot = std::sqrt(s(p, p));
-    Eigen::Matrix<double, 8, 1> column = s.col(p) / pivot;
-    for (int j = 0; j < 7; ++j) {
-      if (done[j] && j != p) column(j) = 0.0;
-    }
-    column(p) = pivot;
-    r_factor.row(i) = column.head<7>().transpose();
-    r_c(i) = column(7);
-    s.noalias() -= column * column.transpose();
+    r_c(7) = std::sqrt(std::max(s(7, 7), 0.0));
+    if (!r_c.allFinite()) return false;
+    std::copy(host_pose, host_pose + kPoseAmbientSize, cache_.parameters);
+    std::copy(target_pose, target_pose + kPoseAmbientSize, cache_.parameters + kPoseAmbientSize);
+    cache_.parameters[2 * kPoseAmbientSize] = inverse_depth;
+    cache_.squared_norm = sq;
+    cache_.valid = true;
   }
-  r_c(7) = std::sqrt(std::max(s(7, 7), 0.0));
   std::copy(r_c.data(), r_c.data() + kNumResiduals, residuals);
   using Jacobian8x7 = Eigen::Matrix<double, 8, 7, Eigen::RowMajor>;
   if (jacobians[0]) {
@@ -440,7 +481,7 @@ bool CompressedFeatureMetricCost::Evaluate(double const* const* parameters, doub
     out.head<7>() = r_factor.col(6);
     out(7) = 0.0;
   }
-  return r_c.allFinite();
+  return true;
 }
 
 }  // namespace dfo

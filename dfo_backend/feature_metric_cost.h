@@ -158,6 +158,13 @@ class FeatureMetricCost : public ceres::CostFunction {
 // parameters), so ceres::GradientChecker does not apply: the tests check the identities
 // above against FeatureMetricCost. A residual-only evaluation returns [|r|, 0, ..., 0].
 // Copies the block of `cost` (cost need not outlive it; its target level must).
+//
+// The last evaluation with Jacobians is kept (its parameters, |r|^2, the compressed residual and
+// the factor): an evaluation at bitwise the same parameters copies it instead of recomputing.
+// The window's second solve (after the outlier gate) starts where the first ended, and the gate
+// needs every block's |r|^2 there, so the window keeps one such cost per block across both
+// solves. The kept evaluation makes Evaluate write to the object: one cost must therefore not be
+// shared by two residual blocks (Ceres evaluates a residual block from one thread at a time).
 class CompressedFeatureMetricCost : public ceres::SizedCostFunction<8, 7, 7, 1> {
  public:
   explicit CompressedFeatureMetricCost(const FeatureMetricCost* cost);
@@ -165,12 +172,28 @@ class CompressedFeatureMetricCost : public ceres::SizedCostFunction<8, 7, 7, 1> 
   bool Evaluate(double const* const* parameters, double* residuals,
                 double** jacobians) const override;
 
+  // |r|^2 of the full residual (= |compressed residual|^2) from the last evaluation with
+  // Jacobians, if that was at bitwise these parameters; false otherwise (*squared_norm
+  // untouched).
+  bool CachedSquaredNorm(const double* host_pose, const double* target_pose, double inverse_depth,
+                         double* squared_norm) const;
+
   // Rows of the compressed residual.
   static constexpr int kNumResiduals = 8;
 
  private:
+  struct Cache {
+    bool valid = false;
+    double parameters[15];  // host pose (7), target pose (7), inverse depth
+    double squared_norm;    // |r|^2 of the full residual
+    double residuals[8];    // the compressed residual
+    double factor[7 * 7];   // [R_A R_c], row-major (see above)
+  };
+  bool Hit(const double* host_pose, const double* target_pose, double inverse_depth) const;
+
   FeatureMetricBlock block_;
   int num_full_residuals_;
+  mutable Cache cache_;
 };
 
 }  // namespace dfo

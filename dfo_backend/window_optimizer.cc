@@ -143,6 +143,15 @@ struct WindowOptimizer::KeyframeState {
   int num_selected = 0;           // points selected when it entered
 };
 
+// One residual block: the cost (marginalisation, the gate's fallback, tests) and, for blocks of
+// more than 8 rows, the compressed form the solves use. The compressed cost lives as long as the
+// block, so that what it kept from the first solve's last evaluation serves the outlier gate and
+// the second solve's first evaluation (feature_metric_cost.h).
+struct WindowOptimizer::Block {
+  std::unique_ptr<FeatureMetricCost> cost;
+  std::unique_ptr<CompressedFeatureMetricCost> compressed;  // null: the cost has <= 8 rows
+};
+
 struct WindowOptimizer::PointState {
   int host_id = 0;
   int x = 0, y = 0;  // pixel at the BA level
@@ -152,7 +161,8 @@ struct WindowOptimizer::PointState {
   // Host patch on the coarse level, centred where (x, y) lands there; null when coarse solves are
   // off or the patch leaves the coarse level (the point then sits the warm-up out).
   std::shared_ptr<const std::vector<double>> coarse_patch;
-  std::map<int, std::unique_ptr<FeatureMetricCost>> residuals;  // by target keyframe id
+  // The blocks of the point, by target keyframe id.
+  std::map<int, Block> residuals;
 };
 
 WindowOptimizer::WindowOptimizer(const WindowOptions& options) : options_(options) {
@@ -289,7 +299,11 @@ void WindowOptimizer::ConnectNewKeyframe(KeyframeState* new_kf) {
       const Eigen::Vector2d stretch = cost->WarpStretch(host->pose, target->pose, p->inverse_depth);
       if (!(stretch(0) <= max_stretch && stretch(1) >= 1.0 / max_stretch)) return;
       if (cost->NumVisible(host->pose, target->pose, p->inverse_depth) == full) {
-        p->residuals[target->id] = std::move(cost);
+        Block& block = p->residuals[target->id];
+        if (cost->num_residuals() > CompressedFeatureMetricCost::kNumResiduals) {
+          block.compressed = std::make_unique<CompressedFeatureMetricCost>(cost.get());
+        }
+        block.cost = std::move(cost);
       }
     };
     if (p->host_id == new_kf->id) {
@@ -360,22 +374,23 @@ bool WindowOptimizer::Solve(int max_iterations, double* initial_cost, double* fi
     PointState* p = points_[i].get();
     if (p->residuals.empty() || (coarse && p->coarse_patch == nullptr)) continue;
     double* depth = &depth_buffer[i];
-    for (auto& [target_id, cost] : p->residuals) {
-      FeatureMetricCost* full_cost = cost.get();
+    for (auto& [target_id, block] : p->residuals) {
+      FeatureMetricCost* full_cost = block.cost.get();
+      // The solver sees each block through its 8-row compression (feature_metric_cost.h: the
+      // same cost, gradient and normal equations, 27/8 less work for a 27-row block).
+      ceres::CostFunction* block_cost =
+          block.compressed ? static_cast<ceres::CostFunction*>(block.compressed.get()) : full_cost;
       if (coarse) {
         const KeyframeState* host = FindKeyframe(p->host_id);
         auto coarse_cost = std::make_unique<FeatureMetricCost>(
             &FindKeyframe(target_id)->coarse, host->coarse.camera, CoarsePixel(p->x, p->y),
             options_.patch_size, p->coarse_patch);
-        full_cost = coarse_cost.get();
+        block_cost = coarse_cost.get();
+        if (coarse_cost->num_residuals() > CompressedFeatureMetricCost::kNumResiduals) {
+          owned_costs.push_back(std::make_unique<CompressedFeatureMetricCost>(coarse_cost.get()));
+          block_cost = owned_costs.back().get();
+        }
         owned_costs.push_back(std::move(coarse_cost));
-      }
-      // The solver sees each block through its 8-row compression (feature_metric_cost.h: the
-      // same cost, gradient and normal equations, 27/8 less work for a 27-row block).
-      ceres::CostFunction* block_cost = full_cost;
-      if (full_cost->num_residuals() > CompressedFeatureMetricCost::kNumResiduals) {
-        owned_costs.push_back(std::make_unique<CompressedFeatureMetricCost>(full_cost));
-        block_cost = owned_costs.back().get();
       }
       problem.AddResidualBlock(block_cost, loss_.get(), pose_of.at(p->host_id),
                                pose_of.at(target_id), depth);
@@ -459,12 +474,18 @@ int WindowOptimizer::GateOutliers() {
   for (size_t i = 0; i < points_.size(); ++i) {
     PointState& p = *points_[i];
     KeyframeState* host = FindKeyframe(p.host_id);
-    for (auto& [target_id, cost] : p.residuals) {
-      residuals.resize(cost->num_residuals());
-      cost->EvaluateTangent(host->pose, FindKeyframe(target_id)->pose, p.inverse_depth,
-                            residuals.data(), nullptr, nullptr, nullptr);
+    for (auto& [target_id, block] : p.residuals) {
+      const double* target_pose = FindKeyframe(target_id)->pose;
+      // Usually the solve's last evaluation is at this state (not where the inverse-depth bound
+      // moved the point).
       double sq = 0.0;
-      for (double r : residuals) sq += r * r;
+      if (!block.compressed ||
+          !block.compressed->CachedSquaredNorm(host->pose, target_pose, p.inverse_depth, &sq)) {
+        residuals.resize(block.cost->num_residuals());
+        block.cost->EvaluateTangent(host->pose, target_pose, p.inverse_depth, residuals.data(),
+                                    nullptr, nullptr, nullptr);
+        for (double r : residuals) sq += r * r;
+      }
       costs_by_target[target_id].push_back(sq);
       per_point[i].emplace_back(target_id, sq);
     }
@@ -728,7 +749,8 @@ void WindowOptimizer::MarginalizeKeyframe(int position, WindowResult* result) {
       const int point_var = static_cast<int>(variables.size());
       variables.push_back({1, true});
       ++marginalized_points;
-      for (const auto& [target_id, cost] : p->residuals) {
+      for (const auto& [target_id, block] : p->residuals) {
+        const FeatureMetricCost* cost = block.cost.get();
         const KeyframeState* target = FindKeyframe(target_id);
         const int n = cost->num_residuals();
         LinearizedFactor factor;

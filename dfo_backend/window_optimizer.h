@@ -202,6 +202,7 @@ class WindowOptimizer {
 
  private:
   struct KeyframeState;
+  struct Block;
   struct PointState;
 
   void SelectPoints(KeyframeState* keyframe);

@@ -441,5 +441,50 @@ TEST(CompressedFeatureMetricCostTest, SameGradientAndJacobianGramThroughHuberLos
   EXPECT_LT((h_b - h_a).cwiseAbs().maxCoeff(), 1e-9 * h_a.cwiseAbs().maxCoeff());
 }
 
+// The kept evaluation: at bitwise the same parameters it is reused (same outputs as a fresh cost,
+// and |r|^2 for the outlier gate); at any other parameters the cost is evaluated anew.
+TEST(CompressedFeatureMetricCostTest, KeptEvaluationServesOnlyTheSameParameters) {
+  CostFixture fx(41);
+  FeatureMetricCost full(&fx.target, fx.host.camera, fx.uv, 3, fx.patch);
+  CompressedFeatureMetricCost kept(&full);
+  const int n = CompressedFeatureMetricCost::kNumResiduals;
+  auto evaluate = [n](const CompressedFeatureMetricCost& cost, const double* host,
+                      const double* target, double rho) {
+    std::vector<double> out(static_cast<size_t>(n) * 16);  // residuals, 7 + 7 + 1 columns
+    double* jac[] = {out.data() + n, out.data() + 8 * n, out.data() + 15 * n};
+    const double* params[] = {host, target, &rho};
+    EXPECT_TRUE(cost.Evaluate(params, out.data(), jac));
+    return out;
+  };
+  double sq = -1.0;
+  EXPECT_FALSE(kept.CachedSquaredNorm(fx.host_pose, fx.target_pose, fx.rho, &sq));
+  // A residual-only evaluation keeps nothing.
+  std::vector<double> r_only(n);
+  const double* params[] = {fx.host_pose, fx.target_pose, &fx.rho};
+  ASSERT_TRUE(kept.Evaluate(params, r_only.data(), nullptr));
+  EXPECT_FALSE(kept.CachedSquaredNorm(fx.host_pose, fx.target_pose, fx.rho, &sq));
+
+  const std::vector<double> first = evaluate(kept, fx.host_pose, fx.target_pose, fx.rho);
+  std::vector<double> r_full(full.num_residuals());
+  ASSERT_TRUE(full.Evaluate(params, r_full.data(), nullptr));
+  double full_sq = 0.0;
+  for (double v : r_full) full_sq += v * v;
+  ASSERT_TRUE(kept.CachedSquaredNorm(fx.host_pose, fx.target_pose, fx.rho, &sq));
+  EXPECT_EQ(sq, full_sq);
+  EXPECT_EQ(evaluate(kept, fx.host_pose, fx.target_pose, fx.rho), first);
+
+  // Moved parameters: not served from the kept evaluation, and equal to a fresh cost's.
+  double moved[7];
+  std::copy(fx.target_pose, fx.target_pose + 7, moved);
+  moved[4] += 0.01;
+  EXPECT_FALSE(kept.CachedSquaredNorm(fx.host_pose, moved, fx.rho, &sq));
+  const std::vector<double> second = evaluate(kept, fx.host_pose, moved, fx.rho);
+  CompressedFeatureMetricCost fresh(&full);
+  EXPECT_EQ(second, evaluate(fresh, fx.host_pose, moved, fx.rho));
+  EXPECT_NE(second, first);
+  EXPECT_FALSE(kept.CachedSquaredNorm(fx.host_pose, fx.target_pose, fx.rho, &sq));
+  EXPECT_FALSE(kept.CachedSquaredNorm(fx.host_pose, moved, fx.rho + 1e-12, &sq));
+}
+
 }  // namespace
 }  // namespace dfo
