@@ -422,10 +422,10 @@ bool CompressedFeatureMetricCost::Evaluate(double const* const* parameters, doub
     residuals[0] = std::sqrt(sq);
     return std::isfinite(residuals[0]);
   }
-  // R: row i = the i-th row of L7^T in the original column order (zero rows past the rank).
-  using Factor = Eigen::Matrix<double, 7, 7, Eigen::RowMajor>;
+  // R: row i = the i-th row of L6^T in the original column order (zero rows past the rank).
+  using Factor = Eigen::Matrix<double, 6, 7, Eigen::RowMajor>;
   Eigen::Map<Factor> r_factor(cache_.factor);
-  Eigen::Map<Eigen::Matrix<double, 8, 1>> r_c(cache_.residuals);
+  Eigen::Map<Eigen::Matrix<double, kNumResiduals, 1>> r_c(cache_.residuals);
   if (!hit) {
     cache_.valid = false;
     thread_local std::vector<double> full;
@@ -439,7 +439,8 @@ bool CompressedFeatureMetricCost::Evaluate(double const* const* parameters, doub
     const double max_diagonal = s.diagonal().head<7>().maxCoeff();
     const double floor = 1e-15 * max_diagonal;
     bool done[7] = {false, false, false, false, false, false, false};
-    for (int i = 0; i < 7; ++i) {
+    double l_sq = 0.0;
+    for (int i = 0; i < 6; ++i) {
       int p = -1;
       for (int j = 0; j < 7; ++j) {
         if (!done[j] && (p < 0 || s(j, j) > s(p, p))) p = j;
@@ -454,9 +455,10 @@ bool CompressedFeatureMetricCost::Evaluate(double const* const* parameters, doub
       column(p) = pivot;
       r_factor.row(i) = column.head<7>().transpose();
       r_c(i) = column(7);
+      l_sq += column(7) * column(7);
       s.noalias() -= column * column.transpose();
     }
-    r_c(7) = std::sqrt(std::max(s(7, 7), 0.0));
+    r_c(6) = std::sqrt(std::max(sq - l_sq, 0.0));
     if (!r_c.allFinite()) return false;
     std::copy(host_pose, host_pose + kPoseAmbientSize, cache_.parameters);
     std::copy(target_pose, target_pose + kPoseAmbientSize, cache_.parameters + kPoseAmbientSize);
@@ -465,21 +467,21 @@ bool CompressedFeatureMetricCost::Evaluate(double const* const* parameters, doub
     cache_.valid = true;
   }
   std::copy(r_c.data(), r_c.data() + kNumResiduals, residuals);
-  using Jacobian8x7 = Eigen::Matrix<double, 8, 7, Eigen::RowMajor>;
+  using Jacobian = Eigen::Matrix<double, kNumResiduals, 7, Eigen::RowMajor>;
   if (jacobians[0]) {
-    Eigen::Map<Jacobian8x7> out(jacobians[0]);
-    out.topRows<7>() = r_factor.leftCols<6>() * PoseMinusJacobian(host_pose);
-    out.row(7).setZero();
+    Eigen::Map<Jacobian> out(jacobians[0]);
+    out.topRows<6>() = r_factor.leftCols<6>() * PoseMinusJacobian(host_pose);
+    out.row(6).setZero();
   }
   if (jacobians[1]) {
-    Eigen::Map<Jacobian8x7> out(jacobians[1]);
-    out.topRows<7>() = -r_factor.leftCols<6>() * PoseMinusJacobian(target_pose);
-    out.row(7).setZero();
+    Eigen::Map<Jacobian> out(jacobians[1]);
+    out.topRows<6>() = -r_factor.leftCols<6>() * PoseMinusJacobian(target_pose);
+    out.row(6).setZero();
   }
   if (jacobians[2]) {
-    Eigen::Map<Eigen::Matrix<double, 8, 1>> out(jacobians[2]);
-    out.head<7>() = r_factor.col(6);
-    out(7) = 0.0;
+    Eigen::Map<Eigen::Matrix<double, kNumResiduals, 1>> out(jacobians[2]);
+    out.head<6>() = r_factor.col(6);
+    out(6) = 0.0;
   }
   return true;
 }

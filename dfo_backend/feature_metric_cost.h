@@ -135,7 +135,7 @@ class FeatureMetricCost : public ceres::CostFunction {
   FeatureMetricBlock block_;
 };
 
-// The same block as a FeatureMetricCost, with its C x K x K residuals compressed to 8 without
+// The same block as a FeatureMetricCost, with its C x K x K residuals compressed to 7 without
 // changing anything Ceres's trust-region solvers compute from it (used by the window's solves).
 //
 // The tangent Jacobian of a block is J = [A, -A, c] (host, target, inverse depth; N = C K^2
@@ -144,16 +144,20 @@ class FeatureMetricCost : public ceres::CostFunction {
 // (from J^T J, J^T r, |r|^2) and the robust-loss correction of Ceres's Corrector (which, for the
 // normal equations, again only involves |r|^2, J^T r and J^T J). Any (r_c, J_c) with
 //   |r_c|^2 = |r|^2,   J_c^T r_c = J^T r,   J_c^T J_c = J^T J
-// is therefore the same block to the solver. With G = [A c r]^T [A c r] (8 x 8) and its
-// Cholesky factor G = L L^T, L = [L7 0; l^T e] (L7 7 x 7 lower triangular), take r_c = [l; e]
-// and J_c = [R_A, -R_A, R_c; 0] with [R_A R_c] = L7^T and a zero last row:
-//   J_c^T J_c = lift of [A c]^T [A c] = J^T J,  J_c^T r_c = lift of L7 l = [A c]^T r = J^T r,
-//   |r_c|^2 = |l|^2 + e^2 = r^T r.
-// A 27-row block (3 channels, K = 3) becomes 8 rows: Ceres's Jacobian, Schur elimination and
-// scaling work shrink by 27/8. The Cholesky pivots over the 7 parameter columns (largest
-// remaining diagonal first) and stops where the remaining diagonal is below 1e-15 of the
-// largest (rank-deficient blocks: [A c] has rank <= 6 for rho != 0, since c is a combination
-// of A's translation columns); with the pivot order P, [R_A R_c] = L7^T P^T. Its Jacobian is not
+// is therefore the same block to the solver. [A c] has rank <= 6: for rho != 0, c is a
+// combination of A's translation columns (each row's dp/drho = dp/dt_host . (t_h - t_t) / rho),
+// and for rho = 0 those columns are zero. With G = [A c r]^T [A c r] (8 x 8) and its pivoted
+// Cholesky factor over the 7 parameter columns, stopped after 6 pivots, G = L L^T with
+// L = [L6 0; l^T e] (L6 7 x 6, l 6 values), take r_c = [l; e] and J_c = [R_A, -R_A, R_c; 0] with
+// [R_A R_c] = L6^T (6 x 7) and a zero last row:
+//   J_c^T J_c = lift of [A c]^T [A c] = J^T J,  J_c^T r_c = lift of L6 l = [A c]^T r = J^T r,
+//   |r_c|^2 = |l|^2 + e^2 = r^T r
+// (up to the round-off left in the seventh pivot, which the rank bound makes zero). A 27-row
+// block (3 channels, K = 3) becomes 7 rows: Ceres's Jacobian, Schur elimination and scaling work
+// shrink by 27/7. The pivots are taken largest remaining diagonal first, and the factorisation
+// stops early where the remaining diagonal is below 1e-15 of the largest (rank-deficient
+// blocks, e.g. rho = 0 or clamped pixels); with the pivot order P, [R_A R_c] = L6^T P^T. e is
+// sqrt(|r|^2 - |l|^2), so |r_c|^2 = |r|^2 holds exactly. Its Jacobian is not
 // the derivative of its residual (the implied orthogonal basis of [A c] moves with the
 // parameters), so ceres::GradientChecker does not apply: the tests check the identities
 // above against FeatureMetricCost. A residual-only evaluation returns [|r|, 0, ..., 0].
@@ -165,7 +169,7 @@ class FeatureMetricCost : public ceres::CostFunction {
 // needs every block's |r|^2 there, so the window keeps one such cost per block across both
 // solves. The kept evaluation makes Evaluate write to the object: one cost must therefore not be
 // shared by two residual blocks (Ceres evaluates a residual block from one thread at a time).
-class CompressedFeatureMetricCost : public ceres::SizedCostFunction<8, 7, 7, 1> {
+class CompressedFeatureMetricCost : public ceres::SizedCostFunction<7, 7, 7, 1> {
  public:
   explicit CompressedFeatureMetricCost(const FeatureMetricCost* cost);
 
@@ -179,15 +183,15 @@ class CompressedFeatureMetricCost : public ceres::SizedCostFunction<8, 7, 7, 1> 
                          double* squared_norm) const;
 
   // Rows of the compressed residual.
-  static constexpr int kNumResiduals = 8;
+  static constexpr int kNumResiduals = 7;
 
  private:
   struct Cache {
     bool valid = false;
     double parameters[15];  // host pose (7), target pose (7), inverse depth
     double squared_norm;    // |r|^2 of the full residual
-    double residuals[8];    // the compressed residual
-    double factor[7 * 7];   // [R_A R_c], row-major (see above)
+    double residuals[7];    // the compressed residual
+    double factor[6 * 7];   // [R_A R_c], row-major (see above)
   };
   bool Hit(const double* host_pose, const double* target_pose, double inverse_depth) const;
 

@@ -144,12 +144,12 @@ struct WindowOptimizer::KeyframeState {
 };
 
 // One residual block: the cost (marginalisation, the gate's fallback, tests) and, for blocks of
-// more than 8 rows, the compressed form the solves use. The compressed cost lives as long as the
+// more than 7 rows, the compressed form the solves use. The compressed cost lives as long as the
 // block, so that what it kept from the first solve's last evaluation serves the outlier gate and
 // the second solve's first evaluation (feature_metric_cost.h).
 struct WindowOptimizer::Block {
   std::unique_ptr<FeatureMetricCost> cost;
-  std::unique_ptr<CompressedFeatureMetricCost> compressed;  // null: the cost has <= 8 rows
+  std::unique_ptr<CompressedFeatureMetricCost> compressed;  // null: the cost has <= 7 rows
 };
 
 struct WindowOptimizer::PointState {
@@ -376,8 +376,8 @@ bool WindowOptimizer::Solve(int max_iterations, double* initial_cost, double* fi
     double* depth = &depth_buffer[i];
     for (auto& [target_id, block] : p->residuals) {
       FeatureMetricCost* full_cost = block.cost.get();
-      // The solver sees each block through its 8-row compression (feature_metric_cost.h: the
-      // same cost, gradient and normal equations, 27/8 less work for a 27-row block).
+      // The solver sees each block through its 7-row compression (feature_metric_cost.h: the
+      // same cost, gradient and normal equations, 27/7 less work for a 27-row block).
       ceres::CostFunction* block_cost =
           block.compressed ? static_cast<ceres::CostFunction*>(block.compressed.get()) : full_cost;
       if (coarse) {

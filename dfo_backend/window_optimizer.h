@@ -15,7 +15,7 @@
 //     depth are skipped); create a residual block (dfo_backend/feature_metric_cost.h) from every
 //     point to every other window keyframe in which its patch is visible at a similar scale
 //     (max_patch_stretch), old points included.
-//  2. Solve with Ceres (each block as its 8-row CompressedFeatureMetricCost: the same cost,
+//  2. Solve with Ceres (each block as its 7-row CompressedFeatureMetricCost: the same cost,
 //     gradient and normal equations): poses on the SE(3) manifold (pose_manifold.h), the oldest
 //     keyframe held constant (gauge), inverse depths bounded below by min_inverse_depth
 //     (projected after each solve), Huber or Cauchy loss, points eliminated first, optional

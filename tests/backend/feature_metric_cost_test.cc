@@ -354,7 +354,7 @@ Linearization Linearize(const ceres::CostFunction& cost, const double* host, con
 void ExpectSameNormalEquations(const FeatureMetricCost& full, const double* host,
                                const double* target, double rho, const std::string& what) {
   CompressedFeatureMetricCost compressed(&full);
-  ASSERT_EQ(compressed.num_residuals(), 8);
+  ASSERT_EQ(compressed.num_residuals(), CompressedFeatureMetricCost::kNumResiduals);
   const Linearization a = Linearize(full, host, target, &rho);
   const Linearization b = Linearize(compressed, host, target, &rho);
   const double cost_scale = std::max(a.r.squaredNorm(), 1e-30);
@@ -366,7 +366,7 @@ void ExpectSameNormalEquations(const FeatureMetricCost& full, const double* host
   const double g_scale = std::sqrt(h_scale * cost_scale);
   EXPECT_LT((g_b - g_a).cwiseAbs().maxCoeff(), 1e-10 * g_scale) << what;
   // A residual-only evaluation gives the same norm.
-  Eigen::VectorXd r_only(8);
+  Eigen::VectorXd r_only(CompressedFeatureMetricCost::kNumResiduals);
   const double* params[] = {host, target, &rho};
   ASSERT_TRUE(compressed.Evaluate(params, r_only.data(), nullptr));
   EXPECT_NEAR(r_only.squaredNorm(), a.r.squaredNorm(), 1e-12 * cost_scale) << what;
