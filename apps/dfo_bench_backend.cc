@@ -8,9 +8,9 @@
 // first (not timed), computes the frontend's hand-made features (intensity + gradients, 4 levels)
 // and ground-truth depth pyramids, perturbs each keyframe pose as a frontend estimate would be
 // (1 cm, 0.1 deg per axis, seeded), then feeds them to WindowOptimizer with the given options
-// (defaults otherwise: window 7, level 0, 3 x 3 patches, 300 points) and prints the median and
-// 90th percentile of the BA time, the marginalisation time and their sum per keyframe, the window
-// size, and the keyframe pose error against ground truth.
+// (WindowOptions' defaults otherwise) and prints the median and 90th percentile of the BA time,
+// the marginalisation time and their sum per keyframe, the window size, and the keyframe pose
+// error against ground truth.
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
@@ -42,7 +42,7 @@ options:
   --step S               frames between keyframes (default 3)
   --threads T            WindowOptions::num_threads (default 2)
   --window W             WindowOptions::max_keyframes (default 7)
-  --points P             WindowOptions::points_per_keyframe (default 300)
+  --points P             WindowOptions::points_per_keyframe (default: the option's default)
   --iterations I         WindowOptions::max_iterations (default: the option's default)
   --time-limit S         WindowOptions::max_solver_time_s (default: the option's default)
   --depth-prior W        WindowOptions::depth_prior_weight (default 0)

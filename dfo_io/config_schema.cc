@@ -228,7 +228,7 @@ ConfigSchema BuildSchema() {
               "values of the warp's derivative within [1 / this, this] (features compared at "
               "different scales disagree: measured decimetres of bias with forward motion)")
       .GreaterThan(1);
-  s.AddInt("window.points_per_keyframe", 300, "Points selected per keyframe").Min(1).Max(100000);
+  s.AddInt("window.points_per_keyframe", 150, "Points selected per keyframe").Min(1).Max(100000);
   s.AddString("window.loss", "huber", "Robust loss of each residual block")
       .OneOf({"huber", "cauchy"});
   s.AddDouble("window.loss_scale", 0.5,
@@ -238,7 +238,7 @@ ConfigSchema BuildSchema() {
   s.AddString("window.linear_solver", "sparse_schur",
               "Ceres linear solver: SPARSE_SCHUR with SuiteSparse, or DENSE_SCHUR")
       .OneOf({"sparse_schur", "dense_schur"});
-  s.AddInt("window.max_iterations", 3,
+  s.AddInt("window.max_iterations", 2,
            "Levenberg-Marquardt iterations per solve (up to two solves per keyframe)")
       .Min(1);
   s.AddDouble("window.max_solver_time_s", 0.1,
