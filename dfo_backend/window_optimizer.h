@@ -85,8 +85,8 @@ struct WindowOptions {
   // turns the gate off).
   double max_patch_stretch = 1.5;
   // Points selected per keyframe; in [1, 100000]. 150 (7 keyframes: about 1,000 points in the
-  // window; DSO's real-time setting keeps 800 at 424 x 320): over 8 synthetic sequences as
-  // accurate with learned depth as 300, 11% worse with true depth, about half the BA time
+  // window; DSO's real-time setting keeps 800 at 424 x 320): over 8 synthetic sequences about as
+  // accurate with learned depth as 300 (1-3%), 24-25% worse with true depth, half the BA time
   // (README).
   int points_per_keyframe = 150;
   // Robust loss on each block: "huber" or "cauchy".
