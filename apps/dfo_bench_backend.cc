@@ -47,8 +47,8 @@ options:
   --time-limit S         WindowOptions::max_solver_time_s (default: the option's default)
   --depth-prior W        WindowOptions::depth_prior_weight (default 0)
   --level L              WindowOptions::pyramid_level (default 0)
-  --patch K              WindowOptions::patch_size (default 3)
-  --max-stretch S        WindowOptions::max_patch_stretch (default 1.5)
+  --patch K              WindowOptions::patch_size (default: the option's default)
+  --max-stretch S        WindowOptions::max_patch_stretch (default: the option's default)
   --descriptor NAME      hand-made features: intensity, intensity_gradients (default) or rich
   --blur S               hand-made features: blur_sigma_px (default 1)
   --perturbation F       scale of the keyframe pose perturbation (default 1: 1 cm and 0.1 deg

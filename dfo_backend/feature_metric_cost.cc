@@ -386,22 +386,81 @@ bool CompressedFeatureMetricCost::Hit(const double* host_pose, const double* tar
 }
 
 bool CompressedFeatureMetricCost::CachedSquaredNorm(const double* host_pose,
-                                                    const double* target_pose,
-                                                    double inverse_depth,
+                                                    const double* target_pose, double inverse_depth,
                                                     double* squared_norm) const {
   if (!Hit(host_pose, target_pose, inverse_depth)) return false;
   *squared_norm = cache_.squared_norm;
   return true;
 }
 
+namespace {
+
+// Scratch for a block's full residual vector; per thread (Ceres evaluates blocks in parallel).
+std::vector<double>& FullResidualScratch(int size) {
+  thread_local std::vector<double> full;
+  full.resize(static_cast<size_t>(size));
+  return full;
+}
+
+double SquaredNorm(const std::vector<double>& values) {
+  double sq = 0.0;
+  for (double v : values) sq += v * v;
+  return sq;
+}
+
+}  // namespace
+
 // Pivoted outer-product Cholesky of the Gram matrix over its 7 parameter columns, the residual
-// column (7) last and never a pivot (see the header).
+// column (7) last and never a pivot, stopped after 6 pivots (see the header).
+bool CompressedFeatureMetricCost::Factorize(const double* host_pose, const double* target_pose,
+                                            double inverse_depth) const {
+  cache_.valid = false;
+  std::vector<double>& full = FullResidualScratch(num_full_residuals_);
+  Eigen::Matrix<double, 8, 8> s;  // the Gram matrix, then the running Schur complement
+  if (!block_.EvaluateGram(host_pose, target_pose, inverse_depth, full.data(), &s)) return false;
+  const double sq = SquaredNorm(full);
+  // R: row i = the i-th row of L6^T in the original column order (zero rows past the rank).
+  Eigen::Map<Eigen::Matrix<double, 6, 7, Eigen::RowMajor>> r_factor(cache_.factor);
+  Eigen::Map<Eigen::Matrix<double, kNumResiduals, 1>> r_c(cache_.residuals);
+  r_factor.setZero();
+  r_c.setZero();
+  const double max_diagonal = s.diagonal().head<7>().maxCoeff();
+  const double floor = 1e-15 * max_diagonal;
+  bool done[7] = {false, false, false, false, false, false, false};
+  double l_sq = 0.0;
+  for (int i = 0; i < 6; ++i) {
+    int p = -1;
+    for (int j = 0; j < 7; ++j) {
+      if (!done[j] && (p < 0 || s(j, j) > s(p, p))) p = j;
+    }
+    if (!(s(p, p) > floor) || !(max_diagonal > 0.0)) break;
+    done[p] = true;
+    const double pivot = std::sqrt(s(p, p));
+    Eigen::Matrix<double, 8, 1> column = s.col(p) / pivot;
+    for (int j = 0; j < 7; ++j) {
+      if (done[j] && j != p) column(j) = 0.0;
+    }
+    column(p) = pivot;
+    r_factor.row(i) = column.head<7>().transpose();
+    r_c(i) = column(7);
+    l_sq += column(7) * column(7);
+    s.noalias() -= column * column.transpose();
+  }
+  r_c(6) = std::sqrt(std::max(sq - l_sq, 0.0));
+  if (!r_c.allFinite()) return false;
+  std::copy(host_pose, host_pose + kPoseAmbientSize, cache_.parameters);
+  std::copy(target_pose, target_pose + kPoseAmbientSize, cache_.parameters + kPoseAmbientSize);
+  cache_.parameters[2 * kPoseAmbientSize] = inverse_depth;
+  cache_.squared_norm = sq;
+  cache_.valid = true;
+  return true;
+}
+
 bool CompressedFeatureMetricCost::Evaluate(double const* const* parameters, double* residuals,
                                            double** jacobians) const {
   const double* host_pose = parameters[0];
   const double* target_pose = parameters[1];
   const double inverse_depth = parameters[2][0];
-  const int n = num_full_residuals_;
   const bool any_jacobian = jacobians != nullptr && (jacobians[0] || jacobians[1] || jacobians[2]);
   const bool hit = Hit(host_pose, target_pose, inverse_depth);
   if (!any_jacobian) {
@@ -409,64 +468,20 @@ bool CompressedFeatureMetricCost::Evaluate(double const* const* parameters, doub
     if (hit) {
       sq = cache_.squared_norm;
     } else {
-      // Scratch for the full residual vector; per thread (Ceres evaluates blocks in parallel).
-      thread_local std::vector<double> full;
-      full.resize(static_cast<size_t>(n));
+      std::vector<double>& full = FullResidualScratch(num_full_residuals_);
       if (!block_.Evaluate(host_pose, target_pose, inverse_depth, full.data(), nullptr, nullptr,
                            nullptr, /*ambient=*/false)) {
         return false;
       }
-      for (double v : full) sq += v * v;
+      sq = SquaredNorm(full);
     }
     std::fill_n(residuals, kNumResiduals, 0.0);
     residuals[0] = std::sqrt(sq);
     return std::isfinite(residuals[0]);
   }
-  // R: row i = the i-th row of L6^T in the original column order (zero rows past the rank).
-  using Factor = Eigen::Matrix<double, 6, 7, Eigen::RowMajor>;
-  Eigen::Map<Factor> r_factor(cache_.factor);
-  Eigen::Map<Eigen::Matrix<double, kNumResiduals, 1>> r_c(cache_.residuals);
-  if (!hit) {
-    cache_.valid = false;
-    thread_local std::vector<double> full;
-    full.resize(static_cast<size_t>(n));
-    Eigen::Matrix<double, 8, 8> s;  // the Gram matrix, then the running Schur complement
-    if (!block_.EvaluateGram(host_pose, target_pose, inverse_depth, full.data(), &s)) return false;
-    double sq = 0.0;
-    for (double v : full) sq += v * v;
-    r_factor.setZero();
-    r_c.setZero();
-    const double max_diagonal = s.diagonal().head<7>().maxCoeff();
-    const double floor = 1e-15 * max_diagonal;
-    bool done[7] = {false, false, false, false, false, false, false};
-    double l_sq = 0.0;
-    for (int i = 0; i < 6; ++i) {
-      int p = -1;
-      for (int j = 0; j < 7; ++j) {
-        if (!done[j] && (p < 0 || s(j, j) > s(p, p))) p = j;
-      }
-      if (!(s(p, p) > floor) || !(max_diagonal > 0.0)) break;
-      done[p] = true;
-      const double pivot = std::sqrt(s(p, p));
-      Eigen::Matrix<double, 8, 1> column = s.col(p) / pivot;
-      for (int j = 0; j < 7; ++j) {
-        if (done[j] && j != p) column(j) = 0.0;
-      }
-      column(p) = pivot;
-      r_factor.row(i) = column.head<7>().transpose();
-      r_c(i) = column(7);
-      l_sq += column(7) * column(7);
-      s.noalias() -= column * column.transpose();
-    }
-    r_c(6) = std::sqrt(std::max(sq - l_sq, 0.0));
-    if (!r_c.allFinite()) return false;
-    std::copy(host_pose, host_pose + kPoseAmbientSize, cache_.parameters);
-    std::copy(target_pose, target_pose + kPoseAmbientSize, cache_.parameters + kPoseAmbientSize);
-    cache_.parameters[2 * kPoseAmbientSize] = inverse_depth;
-    cache_.squared_norm = sq;
-    cache_.valid = true;
-  }
-  std::copy(r_c.data(), r_c.data() + kNumResiduals, residuals);
+  if (!hit && !Factorize(host_pose, target_pose, inverse_depth)) return false;
+  const Eigen::Map<const Eigen::Matrix<double, 6, 7, Eigen::RowMajor>> r_factor(cache_.factor);
+  std::copy(cache_.residuals, cache_.residuals + kNumResiduals, residuals);
   using Jacobian = Eigen::Matrix<double, kNumResiduals, 7, Eigen::RowMajor>;
   if (jacobians[0]) {
     Eigen::Map<Jacobian> out(jacobians[0]);

@@ -194,6 +194,9 @@ class CompressedFeatureMetricCost : public ceres::SizedCostFunction<7, 7, 7, 1> 
     double factor[6 * 7];   // [R_A R_c], row-major (see above)
   };
   bool Hit(const double* host_pose, const double* target_pose, double inverse_depth) const;
+  // Evaluates the Gram matrix, factorises it into cache_ and marks it valid; false (cache_
+  // invalid) when a value is not finite.
+  bool Factorize(const double* host_pose, const double* target_pose, double inverse_depth) const;
 
   FeatureMetricBlock block_;
   int num_full_residuals_;
