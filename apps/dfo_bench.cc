@@ -158,9 +158,8 @@ FrontendOptions BenchFrontendOptions(const Args& args) {
   return o;
 }
 
-// The frontend with its sources: a learned source loads --model (once per call).
-std::unique_ptr<Frontend> MakeBenchFrontend(const Args& args) {
-  const FrontendOptions options = BenchFrontendOptions(args);
+// The frontend's sources: a learned source loads --model (once per call).
+apps::FrontendSources MakeBenchSources(const Args& args, const FrontendOptions& options) {
   LearnedModelOptions model;
   model.model_path = args.model;
   model.num_threads = args.threads;
@@ -169,6 +168,13 @@ std::unique_ptr<Frontend> MakeBenchFrontend(const Args& args) {
   if (sources.model) {
     std::printf("learned sources: %s\n", apps::DescribeLearnedModel(*sources.model).c_str());
   }
+  return sources;
+}
+
+// The frontend with its sources.
+std::unique_ptr<Frontend> MakeBenchFrontend(const Args& args) {
+  const FrontendOptions options = BenchFrontendOptions(args);
+  apps::FrontendSources sources = MakeBenchSources(args, options);
   return std::make_unique<Frontend>(options, std::move(sources.features), std::move(sources.depth));
 }
 
@@ -281,12 +287,17 @@ void WholeRunBenchmark(const Args& args) {
   dataset.depth = args.depth == "gt";
   const io::Sequence sequence = io::OpenSequence(dataset);
   apps::SequenceFrameProvider provider(sequence);
-  const std::unique_ptr<Frontend> frontend = MakeBenchFrontend(args);
+  const FrontendOptions frontend_options = BenchFrontendOptions(args);
+  apps::FrontendSources sources = MakeBenchSources(args, frontend_options);
+  OdometryOptions odometry_options;
+  odometry_options.mode = OdometryMode::kFrontend;  // the frontend's path, no window
+  Odometry odometry(frontend_options, odometry_options, std::move(sources.features),
+                    std::move(sources.depth));
   apps::SequenceRunOptions run;
   run.label = "dfo_bench whole run";
   run.progress_interval_s = 10.0;
   const apps::OtherLoadMeter other_load;
-  const apps::SequenceRunResult result = apps::RunSequence(provider, frontend.get(), run);
+  const apps::SequenceRunResult result = apps::RunSequence(provider, &odometry, run);
   if (!result.error.empty()) throw InputError(result.error);
   std::vector<double> load, total;
   for (const apps::FrameRecord& f : result.frames) {

@@ -239,12 +239,12 @@ int Run(const Args& args) {
   FrontendOptions frontend_options = apps::FrontendOptionsFromConfig(config);
   // keyframe.decided_by = manager: the keyframe manager switches the tracker's reference.
   frontend_options.reference.policy = apps::ReferencePolicyFromConfig(config);
-  const apps::RunMode mode = apps::RunModeFromConfig(config);
-  const KeyframeOptions keyframe_options = apps::KeyframeOptionsFromConfig(config);
-  const WindowOptions window_options = apps::WindowOptionsFromConfig(config);
+  const OdometryOptions odometry_options = apps::OdometryOptionsFromConfig(config);
+  const apps::RunMode mode = odometry_options.mode;
   if (mode != apps::RunMode::kFrontend &&
-      window_options.pyramid_level >= frontend_options.tracker.num_levels) {
-    throw ConfigError("window.pyramid_level = " + std::to_string(window_options.pyramid_level) +
+      odometry_options.window.pyramid_level >= frontend_options.tracker.num_levels) {
+    throw ConfigError("window.pyramid_level = " +
+                      std::to_string(odometry_options.window.pyramid_level) +
                       " violates < tracker.num_levels (" +
                       std::to_string(frontend_options.tracker.num_levels) + ")");
   }
@@ -312,22 +312,21 @@ int Run(const Args& args) {
   std::cout.flush();
 
   apps::SequenceFrameProvider provider(sequence);
-  Frontend frontend(frontend_options, std::move(sources.features), std::move(sources.depth));
+  Odometry odometry(frontend_options, odometry_options, std::move(sources.features),
+                    std::move(sources.depth));
   apps::SequenceRunOptions run_options;
   run_options.progress = apps::ParseProgressMode(config.GetString("run.progress"));
   run_options.progress_interval_s = config.GetDouble("run.progress_interval_s");
   run_options.progress_stream = stdout;
-  run_options.mode = mode;
-  run_options.keyframe = keyframe_options;
-  run_options.window = window_options;
   run_options.log_stream = stderr;
   if (streamer) {
     run_options.frame_observer = [&](const apps::FrameRecord& frame,
-                                     const apps::SequenceRunResult& so_far) {
-      streamer->OnFrame(frame, so_far);
+                                     const apps::SequenceRunResult& so_far,
+                                     const Odometry& system) {
+      streamer->OnFrame(frame, so_far, system.poses());
     };
   }
-  const apps::SequenceRunResult result = apps::RunSequence(provider, &frontend, run_options);
+  const apps::SequenceRunResult result = apps::RunSequence(provider, &odometry, run_options);
   if (streamer) streamer->Finish(result);
   const apps::RunOutputs outputs =
       apps::WriteRunOutputs(result, output_dir, config.GetBool("run.plot"));

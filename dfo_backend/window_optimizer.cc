@@ -140,6 +140,7 @@ struct WindowOptimizer::KeyframeState {
   FeatureLevel level;             // features at the BA level
   FeatureLevel coarse;            // features at the BA level + 1 (coarse_iterations > 0)
   ImageF depth;                   // depth at the BA level (m, 0 invalid)
+  double initial_depth_scale = 1.0;  // KeyframeData::initial_depth_scale
   int num_selected = 0;           // points selected when it entered
 };
 
@@ -198,6 +199,29 @@ std::vector<std::pair<int, double>> WindowOptimizer::PointInverseDepths() const 
   std::vector<std::pair<int, double>> out;
   for (const auto& p : points_)
     out.emplace_back(FindKeyframe(p->host_id)->frame_index, p->inverse_depth);
+  return out;
+}
+
+std::vector<Eigen::Vector3d> WindowOptimizer::PointsInKeyframe(int frame_index) const {
+  for (const auto& kf : keyframes_) {
+    if (kf->frame_index == frame_index) return PointsInCamera(PoseFromParameters(kf->pose));
+  }
+  return {};
+}
+
+std::vector<Eigen::Vector3d> WindowOptimizer::PointsInCamera(const SE3d& world_from_cam) const {
+  std::vector<Eigen::Vector3d> out;
+  const SE3d cam_from_world = world_from_cam.Inverse();
+  out.reserve(points_.size());
+  for (const auto& p : points_) {
+    if (p->residuals.empty() && keyframes_.size() > 1) continue;
+    if (!(p->inverse_depth > 0.0) || !std::isfinite(p->inverse_depth)) continue;
+    const KeyframeState* host = FindKeyframe(p->host_id);
+    const Eigen::Vector3d in_host =
+        host->level.camera.Unproject(Eigen::Vector2d(p->x, p->y), 1.0 / p->inverse_depth);
+    const Eigen::Vector3d in_cam = cam_from_world * (PoseFromParameters(host->pose) * in_host);
+    if (in_cam.z() > 0.0 && in_cam.allFinite()) out.push_back(in_cam);
+  }
   return out;
 }
 
@@ -270,8 +294,9 @@ void WindowOptimizer::SelectPoints(KeyframeState* kf) {
     p->host_id = kf->id;
     p->x = c.x;
     p->y = c.y;
-    p->inverse_depth = std::max(1.0 / kf->depth(c.x, c.y), options_.min_inverse_depth);
-    p->prior_inverse_depth = p->inverse_depth;
+    p->prior_inverse_depth = std::max(1.0 / kf->depth(c.x, c.y), options_.min_inverse_depth);
+    p->inverse_depth =
+        std::max(1.0 / (kf->depth(c.x, c.y) * kf->initial_depth_scale), options_.min_inverse_depth);
     p->patch = std::make_shared<const std::vector<double>>(
         SampleHostPatch(f, c.x, c.y, options_.patch_size));
     if (options_.coarse_iterations > 0) {
@@ -530,6 +555,10 @@ WindowResult WindowOptimizer::AddKeyframe(KeyframeData data) {
                 " levels; window.pyramid_level = " + std::to_string(level) + " needs " +
                 std::to_string(level + 1));
   }
+  if (!(data.initial_depth_scale > 0.0) || !std::isfinite(data.initial_depth_scale)) {
+    input_error("initial_depth_scale = " + std::to_string(data.initial_depth_scale) +
+                " violates > 0 and finite");
+  }
   FeatureLevel& f = data.features.levels[level];
   const ImageF& d = data.depth.levels[level];
   if (d.width() != f.width || d.height() != f.height || d.channels() != 1) {
@@ -623,6 +652,7 @@ WindowResult WindowOptimizer::AddKeyframe(KeyframeData data) {
   if (options_.coarse_iterations > 0) kf->coarse = std::move(data.features.levels[level + 1]);
   kf->level = std::move(f);
   kf->depth = d;
+  kf->initial_depth_scale = data.initial_depth_scale;
   KeyframeState* new_kf = kf.get();
   keyframes_.push_back(std::move(kf));
   SelectPoints(new_kf);

@@ -200,6 +200,13 @@ class WindowOptimizer {
   std::vector<int> PriorFrameIndices() const;
   // Inverse depth and host frame index of every live point (for tests and diagnostics).
   std::vector<std::pair<int, double>> PointInverseDepths() const;
+  // Every live point (one with at least one residual block, or any point while the window holds
+  // one keyframe) moved into the camera frame of window keyframe `frame_index` with the window's
+  // current poses and inverse depths: what DSO's tracker builds its depth from. Points behind
+  // that camera are left out. Empty when the frame is not in the window.
+  std::vector<Eigen::Vector3d> PointsInKeyframe(int frame_index) const;
+  // The same points moved into a camera at `world_from_cam` (e.g. a keyframe about to enter).
+  std::vector<Eigen::Vector3d> PointsInCamera(const SE3d& world_from_cam) const;
 
   const WindowOptions& options() const { return options_; }
 

@@ -23,6 +23,10 @@ struct KeyframeData {
   SE3d world_from_cam;
   FeaturePyramid features;  // z-scored feature maps as tracked (planar C x H x W per level)
   DepthPyramid depth;       // depth per level (m, 0 = invalid) from the frontend's depth source
+  // The window starts the keyframe's points at depth * initial_depth_scale (e.g. the source's
+  // depth brought to the window's scale) while its depth prior stays toward `depth` itself (the
+  // depth source's own scale, which anchors the window's scale); > 0.
+  double initial_depth_scale = 1.0;
 };
 
 }  // namespace dfo

@@ -17,6 +17,9 @@ void HandmadeFeatureOptions::Check() const {
   internal::CheckOption(
       std::isfinite(blur_sigma_px) && blur_sigma_px >= 0.0 && blur_sigma_px <= 3.0,
       "handmade.blur_sigma_px", blur_sigma_px, "in [0, 3]");
+  internal::CheckOption(std::isfinite(keyframe_blur_sigma_px) && keyframe_blur_sigma_px <= 3.0,
+                        "handmade.keyframe_blur_sigma_px", keyframe_blur_sigma_px,
+                        "in [0, 3], or < 0 for handmade.blur_sigma_px");
 }
 
 namespace {

@@ -47,6 +47,13 @@ struct HandmadeFeatureOptions {
   // street sequence: with 0, pitch/yaw perturbations of 5 deg did not all converge; with 1.0
   // all 24 single-axis 5 deg / 0.5 m perturbations did.
   double blur_sigma_px = 1.0;
+  // Blur of the features a keyframe hands to the sliding window (KeyframeData::features), in
+  // [0, 3]; < 0 = blur_sigma_px. The window compares a point's patch between keyframes that see
+  // it at different scales (forward motion zooms): a blur fixed in pixels is then a different
+  // blur on the surface in each view, and the window's optimum moves toward "no zoom" (points
+  // too far for the travel: the window's scale grows from keyframe to keyframe). Less blur for
+  // the window shrinks that bias while the tracker keeps its wide basin (README, docs/).
+  double keyframe_blur_sigma_px = -1.0;
 
   // Throws ConfigError naming the field, its value and the rule.
   void Check() const;

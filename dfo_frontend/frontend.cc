@@ -17,6 +17,9 @@ struct Frontend::State {
   SE3d world_from_ref;
   double reference_mean_depth = 0.0;
   int frames_since_reference = 0;
+  // The reference's features and its depth source's pyramid (for SetReferenceDepth).
+  FeaturePyramid reference_features;
+  DepthPyramid reference_depth;
   // Last good pose (the pose of lost frames and of a restart reference) and the one before it,
   // for the constant-velocity motion model.
   SE3d world_from_last;
@@ -24,6 +27,7 @@ struct Frontend::State {
   SE3d last_from_prev;  // last inter-frame motion (identity when unknown)
   // The last processed frame, for MakeLastFrameReference.
   bool has_last_frame = false;
+  Frame last_input;  // kept only when the keyframes get their own features
   TrackedFrame last_frame;
   FeaturePyramid last_features;
   DepthPyramid last_depth;
@@ -89,7 +93,16 @@ Frontend::Frontend(const FrontendOptions& options, std::unique_ptr<FeatureSource
                          : MakeFeatureSource(options.features, options.handmade)),
       depth_(depth ? std::move(depth) : MakeDepthSource(options.depth)),
       tracker_(options.tracker),
-      state_(std::make_unique<State>()) {}
+      state_(std::make_unique<State>()) {
+  // Hand-made keyframe features with their own blur (HandmadeFeatureOptions).
+  const HandmadeFeatureOptions& h = options_.handmade;
+  if (!features && options_.features == "handmade" && h.keyframe_blur_sigma_px >= 0.0 &&
+      h.keyframe_blur_sigma_px != h.blur_sigma_px) {
+    HandmadeFeatureOptions keyframe = h;
+    keyframe.blur_sigma_px = h.keyframe_blur_sigma_px;
+    keyframe_features_ = std::make_unique<HandmadeFeatureSource>(keyframe);
+  }
+}
 
 Frontend::~Frontend() = default;
 
@@ -119,6 +132,7 @@ TrackedFrame Frontend::Process(const Frame& frame) {
   auto finish = [&](const TrackedFrame& result) {
     timings_.tracking_ms = MsSince(start);
     s.has_last_frame = true;
+    if (keyframe_features_) s.last_input = frame;
     s.last_frame = result;
     s.last_features = std::move(features);
     s.last_depth = std::move(depth);
@@ -147,6 +161,8 @@ TrackedFrame Frontend::Process(const Frame& frame) {
     s.world_from_ref = world_from_cam;
     s.reference_mean_depth = tracker_.reference_mean_depth(0);
     s.frames_since_reference = 0;
+    s.reference_features = features;
+    s.reference_depth = depth;
     return true;
   };
 
@@ -280,15 +296,51 @@ bool Frontend::MakeLastFrameReference(KeyframeData* keyframe) {
     s.world_from_ref = last.world_from_cam;
     s.reference_mean_depth = tracker_.reference_mean_depth(0);
     s.frames_since_reference = 0;
+    s.reference_features = s.last_features;
+    s.reference_depth = s.last_depth;
   }
   if (keyframe != nullptr) {
     keyframe->frame_index = last.index;
     keyframe->timestamp_ns = last.timestamp_ns;
     keyframe->world_from_cam = last.world_from_cam;
-    keyframe->features = s.last_features;
+    keyframe->features = keyframe_features_
+                             ? keyframe_features_->Compute(s.last_input, options_.tracker.num_levels)
+                             : s.last_features;
     keyframe->depth = s.last_depth;
   }
   return true;
 }
+
+bool Frontend::SetReferenceDepth(int frame_index, const DepthPyramid& depth) {
+  State& s = *state_;
+  if (!s.has_reference || s.reference_index != frame_index) return false;
+  const int num_levels = options_.tracker.num_levels;
+  if (depth.num_levels() < num_levels) {
+    throw InputError("reference depth for frame " + std::to_string(frame_index) + ": " +
+                     std::to_string(depth.num_levels()) + " levels given, the tracker uses " +
+                     std::to_string(num_levels));
+  }
+  for (int l = 0; l < num_levels; ++l) {
+    const ImageF& given = depth.levels[l];
+    const ImageF& own = s.reference_depth.levels[l];
+    if (given.width() != own.width() || given.height() != own.height() || given.channels() != 1) {
+      throw InputError("reference depth for frame " + std::to_string(frame_index) + ": level " +
+                       std::to_string(l) + " is " + std::to_string(given.width()) + "x" +
+                       std::to_string(given.height()) + "x" + std::to_string(given.channels()) +
+                       ", the frame's depth is " + std::to_string(own.width()) + "x" +
+                       std::to_string(own.height()) + "x1");
+    }
+  }
+  if (depth.NumValid(0) < MinReferenceDepths() ||
+      tracker_.SetReference(s.reference_features, depth) < MinReferencePoints()) {
+    // Back to the depth the reference had (the source's, which made a usable reference).
+    tracker_.SetReference(s.reference_features, s.reference_depth);
+    return false;
+  }
+  s.reference_mean_depth = tracker_.reference_mean_depth(0);
+  return true;
+}
+
+const DepthPyramid& Frontend::reference_source_depth() const { return state_->reference_depth; }
 
 }  // namespace dfo

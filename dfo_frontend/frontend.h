@@ -93,7 +93,8 @@ class Frontend {
   // Makes the frame of the last Process call the reference that the following frames are tracked
   // against (in either policy; with "external" this is the only switch besides the automatic
   // first/restart reference) and fills `keyframe` (may be null) with its index, time, pose
-  // (TrackedFrame::world_from_cam) and the feature and depth pyramids it was processed with.
+  // (TrackedFrame::world_from_cam) and the feature and depth pyramids it was processed with
+  // (hand-made features with their keyframe blur, HandmadeFeatureOptions).
   // When the last frame already is the reference (status kReference, is_new_reference, or a
   // repeated call), nothing is switched and its data are returned. Returns false, switching
   // nothing, when there was no frame, the last frame was lost, or its depth is too sparse for a
@@ -102,12 +103,26 @@ class Frontend {
   // reference and the next frame restarts (status kReference).
   bool MakeLastFrameReference(KeyframeData* keyframe);
 
+  // Replaces the depth the tracker uses for the current reference, which must be frame
+  // `frame_index` (e.g. the depths a sliding window optimised, projected into that keyframe,
+  // DSO's tracking depth): the reference's points and Jacobians are rebuilt from its kept feature
+  // pyramid and `depth` (levels and sizes as the frame's own depth pyramid), and the following
+  // frames are tracked against them. Returns false, changing nothing, when frame_index is not the
+  // current reference or `depth` selects fewer points than a reference needs (then the reference
+  // keeps the depth it had). Throws InputError when the pyramid's levels or sizes do not match.
+  bool SetReferenceDepth(int frame_index, const DepthPyramid& depth);
+  // The depth pyramid the current reference was made with by the depth source (before any
+  // SetReferenceDepth); empty without a reference.
+  const DepthPyramid& reference_source_depth() const;
+
   // Timings of the last Process call.
   const FrontendTimings& last_timings() const;
   // Forgets the reference, the motion model and the pose (the next frame starts at identity).
   void Reset();
 
   const FrontendOptions& options() const;
+  // The tracker (its current reference's points, for diagnostics).
+  const Tracker& tracker() const { return tracker_; }
 
  private:
   struct State;
@@ -124,6 +139,9 @@ class Frontend {
   int MinReferenceDepths() const;
   FrontendOptions options_;
   std::unique_ptr<FeatureSource> features_;
+  // Features of the keyframes handed to the window when they differ from the tracker's
+  // (HandmadeFeatureOptions::keyframe_blur_sigma_px); null: the tracker's.
+  std::unique_ptr<FeatureSource> keyframe_features_;
   std::unique_ptr<DepthSource> depth_;
   Tracker tracker_;
   std::unique_ptr<State> state_;

@@ -78,6 +78,11 @@ ConfigSchema BuildSchema() {
               "0 = none")
       .Min(0)
       .Max(3);
+  s.AddDouble("frontend.handmade_keyframe_blur_sigma_px", -1.0,
+              "Blur (pixels) of the hand-made features keyframes hand to the window; less than "
+              "the tracker's shrinks the window's zoom bias (a pixel blur is a different surface "
+              "blur in views at different distances); < 0 = handmade_blur_sigma_px")
+      .Max(3);
   s.AddString("frontend.depth_scale", "none",
               "Depth scale of a new reference: none (the source's maps as they are) or propagate "
               "(rescaled to agree with the old reference's points; measured worse with the "
@@ -155,6 +160,26 @@ ConfigSchema BuildSchema() {
   s.AddDouble("tracker.max_rmse_ok", 0.5, "Status ok needs an RMSE of at most this").GreaterThan(0);
   s.AddInt("tracker.min_inliers_lost", 30, "Status lost below this many inliers").Min(0);
   s.AddDouble("tracker.max_rmse_lost", 1.0, "Status lost above this RMSE").GreaterThan(0);
+  s.AddString("tracker.depth", "window",
+              "Depth the frames are tracked against after each window solve: the window's "
+              "optimised points projected into the newest keyframe, pixels without one filled as "
+              "tracker.depth_fill says (window), or the depth source's map of the keyframe as it "
+              "is (source); run.mode frontend always uses the source")
+      .OneOf({"window", "source"});
+  s.AddString("tracker.depth_fill", "scaled_source",
+              "With tracker.depth window, pixels no window point covers: the source's depth "
+              "times the median window/source depth ratio (scaled_source), or none (only window "
+              "points, as DSO)")
+      .OneOf({"scaled_source", "none"});
+  s.AddInt("tracker.min_window_points", 50,
+           "Fewest window points inside the newest keyframe for a window depth (and for a depth "
+           "scale estimate); fewer: the keyframe's source depth")
+      .Min(1);
+  s.AddInt("tracker.splat_radius_px", 1,
+           "Half side of the square of pixels each window point gives its depth to, at every "
+           "level (1: 3 x 3)")
+      .Min(0)
+      .Max(8);
 
   s.AddSection("reference",
                "The frontend's own reference-switch rule (any rule that fires switches); used only "
@@ -268,6 +293,12 @@ ConfigSchema BuildSchema() {
               "first (DSO: 5 %)")
       .Min(0)
       .Max(1);
+  s.AddString("window.initial_depth_scale", "window",
+              "Where a new keyframe's points start: its source depth times the median ratio of "
+              "the window's points seen from it to that depth (window: the window's scale; the "
+              "depth prior still pulls toward the source's own depth), or the source's depth "
+              "(source)")
+      .OneOf({"window", "source"});
   s.AddInt("window.min_marginalized_observations", 2,
            "Points of a leaving keyframe with at least this many residual blocks are "
            "marginalised, the rest dropped")

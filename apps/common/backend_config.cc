@@ -5,17 +5,7 @@
 
 namespace dfo::apps {
 
-const char* RunModeName(RunMode mode) {
-  switch (mode) {
-    case RunMode::kFrontend:
-      return "frontend";
-    case RunMode::kWindowed:
-      return "windowed";
-    case RunMode::kBoth:
-      return "both";
-  }
-  return "unknown";
-}
+const char* RunModeName(RunMode mode) { return OdometryModeName(mode); }
 
 RunMode ParseRunMode(const std::string& value) {
   if (value == "frontend") return RunMode::kFrontend;
@@ -77,6 +67,27 @@ WindowOptions WindowOptionsFromConfig(const io::Config& config) {
 
 std::string ReferencePolicyFromConfig(const io::Config& config) {
   return config.GetString("keyframe.decided_by") == "manager" ? "external" : "internal";
+}
+
+TrackingDepthOptions TrackingDepthOptionsFromConfig(const io::Config& config) {
+  TrackingDepthOptions o;
+  o.depth = config.GetString("tracker.depth");
+  o.fill = config.GetString("tracker.depth_fill");
+  o.min_window_points = config.GetInt("tracker.min_window_points");
+  o.splat_radius_px = config.GetInt("tracker.splat_radius_px");
+  o.initial_depth_scale = config.GetString("window.initial_depth_scale");
+  o.Check();
+  return o;
+}
+
+OdometryOptions OdometryOptionsFromConfig(const io::Config& config) {
+  OdometryOptions o;
+  o.mode = RunModeFromConfig(config);
+  o.keyframe = KeyframeOptionsFromConfig(config);
+  o.window = WindowOptionsFromConfig(config);
+  o.tracking = TrackingDepthOptionsFromConfig(config);
+  o.Check();
+  return o;
 }
 
 }  // namespace dfo::apps

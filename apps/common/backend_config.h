@@ -8,17 +8,16 @@
 #include <string>
 
 #include "dfo_backend/keyframe_manager.h"
+#include "dfo_backend/odometry.h"
 #include "dfo_backend/window_optimizer.h"
 #include "dfo_io/config.h"
 
 namespace dfo::apps {
 
-// What dfo_run estimates from its one frontend pass (run.mode).
-enum class RunMode {
-  kFrontend,  // frontend-only trajectory (frontend_*.txt)
-  kWindowed,  // sliding-window bundle-adjusted trajectory (windowed_*.txt, keyframes_tum.txt)
-  kBoth,      // both, side by side
-};
+// What dfo_run estimates from its one frontend pass (run.mode): kFrontend writes the
+// frontend-only trajectory (frontend_*.txt), kWindowed the sliding-window bundle-adjusted one
+// (windowed_*.txt, keyframes_tum.txt), kBoth both side by side.
+using RunMode = OdometryMode;
 
 // "frontend", "windowed", "both".
 const char* RunModeName(RunMode mode);
@@ -42,6 +41,14 @@ WindowOptions WindowOptionsFromConfig(const io::Config& config);
 // keyframe.decided_by = manager: the frontend runs with reference.policy "external" and the
 // keyframe manager switches it; = frontend: the frontend's own rule ("internal").
 std::string ReferencePolicyFromConfig(const io::Config& config);
+
+// tracker.depth, tracker.depth_fill, tracker.min_window_points, tracker.splat_radius_px and
+// window.initial_depth_scale as TrackingDepthOptions, checked.
+TrackingDepthOptions TrackingDepthOptionsFromConfig(const io::Config& config);
+
+// The whole OdometryOptions of a configuration (run.mode, keyframe.*, window.*, backend.*, the
+// tracking depth), checked.
+OdometryOptions OdometryOptionsFromConfig(const io::Config& config);
 
 }  // namespace dfo::apps
 

@@ -17,6 +17,7 @@ FrontendOptions FrontendOptionsFromConfig(const io::Config& config) {
   o.depth = config.GetString("frontend.depth");
   o.handmade.descriptor = config.GetString("frontend.handmade_descriptor");
   o.handmade.blur_sigma_px = config.GetDouble("frontend.handmade_blur_sigma_px");
+  o.handmade.keyframe_blur_sigma_px = config.GetDouble("frontend.handmade_keyframe_blur_sigma_px");
   o.depth_scale = config.GetString("frontend.depth_scale");
 
   TrackerOptions& t = o.tracker;

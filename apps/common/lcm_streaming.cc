@@ -70,7 +70,8 @@ void LcmRunStreamer::PublishStatus(const SequenceRunResult& result) {
   publisher_.Publish(options_.channels.status, status);
 }
 
-void LcmRunStreamer::OnFrame(const FrameRecord& frame, const SequenceRunResult& result) {
+void LcmRunStreamer::OnFrame(const FrameRecord& frame, const SequenceRunResult& result,
+                             const TrajectoryStore& poses) {
   const auto begin = std::chrono::steady_clock::now();
   const double cpu_begin_ms = ThreadCpuMs();
   if (!started_) {
@@ -83,7 +84,7 @@ void LcmRunStreamer::OnFrame(const FrameRecord& frame, const SequenceRunResult& 
   timestamps_ns_[t.index] = t.timestamp_ns;
   last_timestamp_ns_ = t.timestamp_ns;
   lost_ += t.status == TrackingStatus::kLost ? 1 : 0;
-  const TrajectoryStore& store = result.poses;
+  const TrajectoryStore& store = poses;
   // A keyframe is its own reference; other frames say what their pose is composed of, so that
   // a subscriber can follow their keyframe when the window moves it.
   const int keyframe_index = frame.keyframe ? t.index : frame.pose_keyframe_index;

@@ -4,10 +4,11 @@
 //   LcmStreamOptions lcm_options = LcmStreamOptionsFromConfig(config);
 //   std::unique_ptr<LcmRunStreamer> streamer;
 //   if (lcm_options.active()) streamer = std::make_unique<LcmRunStreamer>(lcm_options, mode);
-//   run_options.frame_observer = [&](const FrameRecord& f, const SequenceRunResult& r) {
-//     streamer->OnFrame(f, r);
+//   run_options.frame_observer = [&](const FrameRecord& f, const SequenceRunResult& r,
+//                                    const Odometry& odometry) {
+//     streamer->OnFrame(f, r, odometry.poses());
 //   };
-//   SequenceRunResult result = RunSequence(provider, &frontend, run_options);
+//   SequenceRunResult result = RunSequence(provider, &odometry, run_options);
 //   streamer->Finish(result);
 //
 // Per processed frame, in this order, on the channels of the `lcm` section:
@@ -59,7 +60,9 @@ class LcmRunStreamer {
 
   // SequenceRunOptions::frame_observer: publishes what the file comment lists for `frame`.
   // Never throws; failures are counted in stats().
-  void OnFrame(const FrameRecord& frame, const SequenceRunResult& result);
+  // `poses`: the system's poses as of this frame (Odometry::poses()).
+  void OnFrame(const FrameRecord& frame, const SequenceRunResult& result,
+               const TrajectoryStore& poses);
   // After the run: the final status and the stop message (reason "finished", or the run's error).
   void Finish(const SequenceRunResult& result);
 

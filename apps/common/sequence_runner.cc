@@ -65,145 +65,14 @@ int SequenceRunResult::CountStatus(TrackingStatus status) const {
   return n;
 }
 
-namespace {
-
-bool IsFinitePose(const SE3d& pose) {
-  return pose.translation().allFinite() && pose.quaternion().coeffs().allFinite();
-}
-
-// Keyframe decisions, pose bookkeeping and the window for one run.
-class KeyframePipeline {
- public:
-  KeyframePipeline(Frontend* frontend, const SequenceRunOptions& options, SequenceRunResult* result)
-      : frontend_(frontend),
-        options_(options),
-        result_(result),
-        manager_(options.keyframe),
-        external_(frontend->options().reference.policy == "external") {
-    if (options.mode != RunMode::kFrontend) {
-      if (options.window.pyramid_level >= frontend->options().tracker.num_levels) {
-        throw ConfigError("window.pyramid_level = " + std::to_string(options.window.pyramid_level) +
-                          " violates < tracker.num_levels (" +
-                          std::to_string(frontend->options().tracker.num_levels) + ")");
-      }
-      if (options.window.coarse_iterations > 0 &&
-          options.window.pyramid_level + 1 >= frontend->options().tracker.num_levels) {
-        throw ConfigError("window.coarse_iterations = " +
-                          std::to_string(options.window.coarse_iterations) +
-                          " needs window.pyramid_level + 1 < tracker.num_levels (" +
-                          std::to_string(frontend->options().tracker.num_levels) +
-                          "); set window.coarse_iterations=0 or use more tracker levels");
-      }
-      window_ = std::make_unique<WindowOptimizer>(options.window);
-    }
-  }
-
-  // Books the tracked frame, decides whether it becomes a keyframe, and runs the window on it.
-  void Handle(FrameRecord* record) {
-    const TrackedFrame& t = record->tracked;
-    TrajectoryStore& store = result_->poses;
-    const KeyframeDecision decision = manager_.Decide(t);
-    if (t.status == TrackingStatus::kReference) {
-      // First frame or restart after a loss: a keyframe by itself, related to the previous
-      // keyframe only through the frontend's poses.
-      store.AddKeyframe(t.index, t.timestamp_ns, t.world_from_cam);
-      record->kf_from_cam = t.world_from_cam;
-      BecomeKeyframe(record, decision.reason);
-      return;
-    }
-    if (t.reference_index >= 0 && store.IsKeyframe(t.reference_index)) {
-      record->pose_keyframe_index = t.reference_index;
-      record->kf_from_cam = t.ref_from_cam;
-    } else if (last_keyframe_ >= 0) {
-      // Not tracked against a keyframe (a lost frame while restarting): keep the frontend's
-      // relation to the newest keyframe.
-      record->pose_keyframe_index = last_keyframe_;
-      record->kf_from_cam = store.FrontendPose(last_keyframe_).Inverse() * t.world_from_cam;
-    } else {
-      record->kf_from_cam = t.world_from_cam;
-    }
-    store.AddFrame(t.index, t.timestamp_ns, record->pose_keyframe_index, record->kf_from_cam);
-    if (t.status == TrackingStatus::kLost) return;
-    bool switched = false;
-    if (external_) {
-      switched = decision.new_keyframe && frontend_->MakeLastFrameReference(nullptr);
-    } else {
-      switched = t.is_new_reference;  // the frontend switched by its own rule
-    }
-    if (switched) {
-      store.PromoteToKeyframe(t.index);
-      BecomeKeyframe(record, external_ ? decision.reason : KeyframeReason::kNone);
-    }
-  }
-
- private:
-  void BecomeKeyframe(FrameRecord* record, KeyframeReason reason) {
-    const TrackedFrame& t = record->tracked;
-    manager_.AcceptKeyframe(t.index);
-    last_keyframe_ = t.index;
-    record->keyframe = true;
-    record->keyframe_reason = reason;
-    KeyframeRecord kf;
-    kf.frame_index = t.index;
-    kf.reason = reason;
-    if (window_) {
-      KeyframeData data;
-      const bool ok = frontend_->MakeLastFrameReference(&data);
-      DFO_CHECK(ok) << "frame " << t.index << " is the reference but has no keyframe data";
-      // The window works in the windowed trajectory's frame: the keyframe starts at its
-      // keyframe's bundle-adjusted pose composed with the tracked relative pose.
-      data.world_from_cam = result_->poses.WindowedPose(t.index);
-      if (options_.keyframe_filter) options_.keyframe_filter(&data);
-      const auto start = std::chrono::steady_clock::now();
-      kf.window = window_->AddKeyframe(std::move(data));
-      kf.backend_ms = MillisecondsSince(start);
-      kf.ba_ran = true;
-      record->backend_ms = kf.backend_ms;
-      bool finite = true;
-      for (const auto& [index, pose] : kf.window.keyframe_poses) finite &= IsFinitePose(pose);
-      if (kf.window.optimized && finite) {
-        for (const auto& [index, pose] : kf.window.keyframe_poses) {
-          result_->poses.SetWindowedPose(index, pose);
-        }
-        if (kf.window.marginalized_frame_index >= 0 && IsFinitePose(kf.window.marginalized_pose)) {
-          result_->poses.SetWindowedPose(kf.window.marginalized_frame_index,
-                                         kf.window.marginalized_pose);
-        }
-      } else if (kf.window.optimized) {
-        kf.window.optimized = false;
-        kf.window.message = "non-finite keyframe pose after the solve; poses not taken";
-      }
-      if (!kf.window.optimized && kf.window.keyframe_poses.size() >= 2 &&
-          options_.log_stream != nullptr) {
-        std::fprintf(options_.log_stream,
-                     "%s: warning: bundle adjustment at keyframe %d kept the previous window "
-                     "state: %s\n",
-                     options_.label.c_str(), t.index,
-                     kf.window.message.empty() ? "no reason given" : kf.window.message.c_str());
-      }
-    }
-    result_->keyframes.push_back(std::move(kf));
-  }
-
-  Frontend* frontend_;
-  const SequenceRunOptions& options_;
-  SequenceRunResult* result_;
-  KeyframeManager manager_;
-  bool external_;
-  std::unique_ptr<WindowOptimizer> window_;
-  int last_keyframe_ = -1;
-};
-
-}  // namespace
-
-SequenceRunResult RunSequence(const FrameProvider& provider, Frontend* frontend,
+SequenceRunResult RunSequence(const FrameProvider& provider, Odometry* odometry,
                               const SequenceRunOptions& options) {
   SequenceRunResult result;
   result.sequence_name = provider.name();
   result.frames_in_sequence = provider.size();
-  result.mode = options.mode;
+  result.mode = odometry->options().mode;
+  result.tracking = odometry->options().tracking;
   result.frames.reserve(provider.size());
-  KeyframePipeline pipeline(frontend, options, &result);
   ProgressReporter progress(options.progress_stream, options.progress, provider.size(),
                             options.progress_interval_s, options.label);
   const auto start = std::chrono::steady_clock::now();
@@ -221,22 +90,41 @@ SequenceRunResult RunSequence(const FrameProvider& provider, Frontend* frontend,
       record.ground_truth = loaded.world_from_cam;
       record.load_ms = MillisecondsSince(frame_start);
       const Frame frame = ToFrame(std::move(loaded));
-      record.tracked = frontend->Process(frame);
-      const FrontendTimings& t = frontend->last_timings();
-      record.features_ms = t.features_ms;
-      record.depth_ms = t.depth_ms;
-      record.tracking_ms = t.tracking_ms;
+      OdometryFrame out = odometry->Process(frame);
+      record.tracked = std::move(out.tracked);
+      record.features_ms = out.timings.features_ms;
+      record.depth_ms = out.timings.depth_ms;
+      record.tracking_ms = out.timings.tracking_ms;
+      record.keyframe = out.keyframe;
+      record.keyframe_reason = out.keyframe_reason;
+      record.backend_ms = out.backend_ms;
+      record.pose_keyframe_index = out.pose_keyframe_index;
+      record.kf_from_cam = out.kf_from_cam;
+      record.tracking_depth = out.tracking_depth;
       lost += record.tracked.status == TrackingStatus::kLost ? 1 : 0;
-      pipeline.Handle(&record);
+      if (out.keyframe) {
+        const KeyframeRecord& kf = odometry->keyframes().back();
+        result.keyframes.push_back(kf);
+        if (kf.ba_ran) record.keyframe_depth_scale = kf.initial_depth_scale;
+        if (kf.ba_ran && !kf.window.optimized && kf.window.keyframe_poses.size() >= 2 &&
+            options.log_stream != nullptr) {
+          std::fprintf(options.log_stream,
+                       "%s: warning: bundle adjustment at keyframe %d kept the previous window "
+                       "state: %s\n",
+                       options.label.c_str(), kf.frame_index,
+                       kf.window.message.empty() ? "no reason given" : kf.window.message.c_str());
+        }
+      }
       record.total_ms = MillisecondsSince(frame_start);
       result.frames.push_back(std::move(record));
-      if (options.frame_observer) options.frame_observer(result.frames.back(), result);
+      if (options.frame_observer) options.frame_observer(result.frames.back(), result, *odometry);
     } catch (const std::exception& e) {
       result.error = e.what();
       break;
     }
     progress.Update(result.frames.size(), status_text());
   }
+  result.poses = odometry->poses();
   result.wall_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
   progress.Finish(result.frames.size(), status_text());
   return result;
@@ -334,6 +222,50 @@ io::JsonValue KeyframesToJson(const SequenceRunResult& result) {
   return k;
 }
 
+// The "tracking_depth" object: what the frames were tracked against.
+io::JsonValue TrackingDepthToJson(const SequenceRunResult& result) {
+  io::JsonValue t = io::JsonValue::Object();
+  const bool window = result.has_windowed() && result.tracking.depth == "window";
+  t.Set("depth", window ? "window" : "source");
+  if (window) t.Set("fill", result.tracking.fill);
+  std::map<std::string, int> frames, keyframes;
+  for (const FrameRecord& f : result.frames) {
+    if (!f.tracking_depth.empty()) ++frames[f.tracking_depth];
+  }
+  std::vector<double> points, covered, scales;
+  io::JsonValue fallbacks = io::JsonValue::Array();
+  for (const KeyframeRecord& k : result.keyframes) {
+    ++keyframes[k.tracking_depth];
+    if (!k.ba_ran) continue;
+    scales.push_back(k.initial_depth_scale);
+    if (k.tracking_depth == "window") {
+      points.push_back(k.tracking_window_points);
+      covered.push_back(k.tracking_covered);
+    } else if (window && fallbacks.size() < 20) {
+      io::JsonValue f = io::JsonValue::Object();
+      f.Set("frame", k.frame_index);
+      f.Set("depth", k.tracking_depth);
+      f.Set("message", k.tracking_depth_note);
+      fallbacks.Push(std::move(f));
+    }
+  }
+  io::JsonValue frame_counts = io::JsonValue::Object();
+  for (const auto& [name, count] : frames) frame_counts.Set(name, count);
+  t.Set("frames", std::move(frame_counts));
+  io::JsonValue keyframe_counts = io::JsonValue::Object();
+  for (const auto& [name, count] : keyframes) keyframe_counts.Set(name, count);
+  t.Set("keyframes", std::move(keyframe_counts));
+  const auto median = [](std::vector<double> v) -> io::JsonValue {
+    if (v.empty()) return io::JsonValue(nullptr);
+    return io::JsonValue(Percentile(v, 50));
+  };
+  t.Set("median_window_points", median(points));
+  t.Set("median_covered_fraction", median(covered));
+  t.Set("median_initial_depth_scale", median(scales));
+  if (window) t.Set("fallbacks", std::move(fallbacks));
+  return t;
+}
+
 }  // namespace
 
 io::JsonValue MakeRunSummary(const SequenceRunResult& result, const RunEvaluation& evaluation,
@@ -358,6 +290,7 @@ io::JsonValue MakeRunSummary(const SequenceRunResult& result, const RunEvaluatio
         "windowed", &s);
   }
   s.Set("keyframes", KeyframesToJson(result));
+  s.Set("tracking_depth", TrackingDepthToJson(result));
 
   std::vector<double> load, features, depth, tracking, total;
   for (const FrameRecord& f : result.frames) {
@@ -396,7 +329,7 @@ void WriteFramesCsv(const std::string& path, const SequenceRunResult& result) {
   std::string text =
       "index,timestamp_s,status,reference_index,new_reference,num_points,num_inliers,rmse,"
       "iterations,keyframe,keyframe_reason,load_ms,features_ms,depth_ms,tracking_ms,backend_ms,"
-      "total_ms\n";
+      "total_ms,tracking_depth,keyframe_depth_scale\n";
   for (const FrameRecord& f : result.frames) {
     const TrackedFrame& t = f.tracked;
     const std::string reason = !f.keyframe ? ""
@@ -409,7 +342,9 @@ void WriteFramesCsv(const std::string& path, const SequenceRunResult& result) {
             std::to_string(t.num_inliers) + "," + Csv(t.rmse, 6) + "," +
             std::to_string(t.iterations) + "," + (f.keyframe ? "1" : "0") + "," + reason + "," +
             Csv(f.load_ms, 3) + "," + Csv(f.features_ms, 3) + "," + Csv(f.depth_ms, 3) + "," +
-            Csv(f.tracking_ms, 3) + "," + Csv(f.backend_ms, 3) + "," + Csv(f.total_ms, 3) + "\n";
+            Csv(f.tracking_ms, 3) + "," + Csv(f.backend_ms, 3) + "," + Csv(f.total_ms, 3) + "," +
+            f.tracking_depth + "," +
+            (f.keyframe_depth_scale > 0.0 ? Csv(f.keyframe_depth_scale, 6) : std::string()) + "\n";
   }
   WriteTextFile(path, text);
 }

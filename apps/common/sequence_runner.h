@@ -3,18 +3,14 @@
 //
 //   io::Sequence sequence = io::OpenSequence(dataset_options);
 //   SequenceFrameProvider provider(sequence);
-//   Frontend frontend(frontend_options);
-//   SequenceRunResult result = RunSequence(provider, &frontend, run_options);
+//   Odometry odometry(frontend_options, odometry_options);
+//   SequenceRunResult result = RunSequence(provider, &odometry, run_options);
 //   RunOutputs outputs = WriteRunOutputs(result, "results/", /*plot=*/true);
 //
-// Keyframes: with the frontend's reference.policy "external" the keyframe manager
-// (dfo_backend/keyframe_manager.h, run_options.keyframe) decides which frame becomes the
-// tracker's next reference; with "internal" the frontend's own references are the keyframes.
-// Every keyframe goes to the WindowOptimizer (run_options.window) unless the mode is kFrontend.
-// Both trajectories come from the same frontend outputs (dfo_backend/trajectory_store.h): each
-// frame's pose relative to its keyframe, composed on the frontend's keyframe poses
-// (frontend-only) or on the window's bundle-adjusted ones (windowed). A bundle adjustment that
-// fails or diverges keeps the window's previous state; the run logs why and goes on.
+// The system itself (frontend, keyframes, window, every frame's pose) is dfo::Odometry
+// (dfo_backend/odometry.h); RunSequence feeds it the provider's frames, times the loading, keeps
+// a record per frame and reports progress. A bundle adjustment that fails or diverges keeps the
+// window's previous state; the run logs why and goes on.
 //
 // RunSequence never throws on bad data met during the run (an unreadable image, a depth map of
 // the wrong size): it stops there and returns the frames processed so far with the error's
@@ -30,7 +26,11 @@
 //   keyframes_tum.txt     the keyframes' poses (windowed; frontend-only in mode frontend), TUM
 //   frames.csv            per frame: index, timestamp_s, status, reference_index, new_reference,
 //                         num_points, num_inliers, rmse, iterations, keyframe, keyframe_reason,
-//                         load_ms, features_ms, depth_ms, tracking_ms, backend_ms, total_ms
+//                         load_ms, features_ms, depth_ms, tracking_ms, backend_ms, total_ms,
+//                         tracking_depth (window, source or scaled_source: what the frame was
+//                         tracked against; empty for frames not tracked), keyframe_depth_scale
+//                         (keyframes in the window: the factor that brought the depth source's
+//                         map to the window's scale, 1 when not rescaled; empty otherwise)
 //   summary.json          see MakeRunSummary
 //   frontend_trajectory.png  top view of ground truth and Sim3-aligned estimate coloured by ATE
 //                         (only when at least 3 processed frames have ground truth and plot);
@@ -49,6 +49,7 @@
 #include "apps/common/evaluation.h"
 #include "apps/common/progress.h"
 #include "dfo_backend/keyframe_manager.h"
+#include "dfo_backend/odometry.h"
 #include "dfo_backend/trajectory_store.h"
 #include "dfo_backend/window_optimizer.h"
 #include "dfo_core/frame.h"
@@ -58,6 +59,8 @@
 #include "dfo_io/json.h"
 
 namespace dfo::apps {
+
+using dfo::KeyframeRecord;  // what happened at one keyframe (dfo_backend/odometry.h)
 
 // Where RunSequence gets its frames: a dataset on disk, or frames made in memory (tests,
 // benchmarks).
@@ -94,26 +97,13 @@ struct SequenceRunOptions {
   double progress_interval_s = 5.0;             // spacing of plain progress lines, > 0
   std::FILE* progress_stream = stdout;          // not owned; nullptr = no progress
   std::string label = "dfo_run";                // first word of progress lines
-  // kFrontend: no bundle adjustment; kWindowed / kBoth: every keyframe goes to the window.
-  RunMode mode = RunMode::kFrontend;
-  KeyframeOptions keyframe;        // the keyframe manager's rules (reference.policy "external")
-  WindowOptions window;            // the sliding window (modes kWindowed, kBoth)
   std::FILE* log_stream = stderr;  // one line per failed bundle adjustment; nullptr = silent
-  // For tests (fault injection): called on each keyframe's data just before the window gets it.
-  std::function<void(KeyframeData*)> keyframe_filter;
   // Called after each processed frame, once its keyframe handling (and bundle adjustment) is
-  // done, with its record (already result.frames.back()) and the result so far, e.g. to stream
-  // poses over LCM. An exception thrown here ends the run like a bad frame.
-  std::function<void(const FrameRecord&, const SequenceRunResult&)> frame_observer;
-};
-
-// What happened at one keyframe.
-struct KeyframeRecord {
-  int frame_index = 0;
-  KeyframeReason reason = KeyframeReason::kNone;  // kNone: the frontend's own (internal) switch
-  bool ba_ran = false;      // the keyframe went to the window (modes kWindowed, kBoth)
-  WindowResult window;      // what WindowOptimizer::AddKeyframe returned (when ba_ran)
-  double backend_ms = 0.0;  // wall time of AddKeyframe (BA + marginalisation)
+  // done, with its record (already result.frames.back()), the result so far and the system (its
+  // poses() are current), e.g. to stream poses over LCM. An exception thrown here ends the run
+  // like a bad frame.
+  std::function<void(const FrameRecord&, const SequenceRunResult&, const Odometry&)>
+      frame_observer;
 };
 
 // One processed frame.
@@ -128,6 +118,11 @@ struct FrameRecord {
   KeyframeReason keyframe_reason = KeyframeReason::kNone;
   double backend_ms = 0.0;  // window AddKeyframe time (keyframes only, else 0)
   double total_ms = 0.0;    // load + Frontend::Process + keyframe handling + backend
+  // The depth the frame was tracked against (OdometryFrame::tracking_depth).
+  std::string tracking_depth;
+  // Keyframes that went to the window: the factor that brought the source's depth to the
+  // window's scale (KeyframeRecord::initial_depth_scale); 0 otherwise.
+  double keyframe_depth_scale = 0.0;
   // How the pose store holds the frame before it may become a keyframe: relative to keyframe
   // pose_keyframe_index with kf_from_cam (-1: kf_from_cam is the absolute pose; a frame that
   // became a keyframe by itself, e.g. a restart, keeps -1).
@@ -145,6 +140,7 @@ struct SequenceRunResult {
   RunMode mode = RunMode::kFrontend;
   TrajectoryStore poses;                  // every processed frame, relative to its keyframe
   std::vector<KeyframeRecord> keyframes;  // in order
+  TrackingDepthOptions tracking;          // what the run tracked against (for the summary)
 
   // Frontend-only poses of the processed frames (stamped), in order: the store's frontend
   // trajectory (the tracked world_from_cam when the store does not hold every frame, e.g. a
@@ -161,13 +157,11 @@ struct SequenceRunResult {
   int CountStatus(TrackingStatus status) const;
 };
 
-// Runs `frontend` over every frame of `provider` in order, with a progress line, deciding
-// keyframes and running the window as the file comment says. Stops at the first error thrown
-// while loading or processing a frame (dfo::Error or another std::exception) and records its
-// message in SequenceRunResult::error; never throws for those. Throws ConfigError up front when
-// options.keyframe or options.window (modes kWindowed, kBoth) fail their Check(), or when
-// window.pyramid_level is not below the tracker's number of levels.
-SequenceRunResult RunSequence(const FrameProvider& provider, Frontend* frontend,
+// Runs `odometry` (fresh: no frame processed yet) over every frame of `provider` in order, with
+// a progress line. Stops at the first error thrown while loading or processing a frame
+// (dfo::Error or another std::exception) and records its message in SequenceRunResult::error;
+// never throws for those.
+SequenceRunResult RunSequence(const FrameProvider& provider, Odometry* odometry,
                               const SequenceRunOptions& options = {});
 
 // Evaluation of the processed frames that have ground truth.
@@ -200,6 +194,13 @@ RunEvaluation EvaluateEstimate(const SequenceRunResult& result, const Trajectory
 //               "ba_optimized", "ba_failed" (solves whose result was not kept),
 //               "marginalized", "max_window_keyframes", "max_points", "max_residual_blocks",
 //               "failures": [{"frame", "message"}] (at most 20)},
+//   "tracking_depth": {"depth" (window | source: what keyframes are tracked against after their
+//               window solve; source in mode frontend), "fill" (tracker.depth_fill, with
+//               window), "frames": {depth: frames tracked against it}, "keyframes": {depth:
+//               keyframes}, "median_window_points", "median_covered_fraction" (of the tracker's
+//               finest points on a window point's depth), "median_initial_depth_scale" (factor
+//               applied to new keyframes' source depth; null without samples), "fallbacks":
+//               [{"frame", "depth", "message"}] (at most 20; with window)},
 //   "timing_ms": {"load", "features", "depth", "tracking", "total_per_frame",
 //               "backend_per_keyframe", "ba_solve_per_keyframe",
 //               "marginalization_per_keyframe"}, each {"median", "p95", "mean", "max"} (null

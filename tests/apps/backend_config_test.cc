@@ -29,6 +29,35 @@ TEST(BackendConfig, SchemaDefaultsEqualKeyframeOptionsDefaults) {
   EXPECT_EQ(apps::RunModeFromConfig(config), apps::RunMode::kBoth);
 }
 
+TEST(BackendConfig, SchemaDefaultsEqualTrackingDepthOptionsDefaults) {
+  const io::Config config(io::DfoSchema());
+  const TrackingDepthOptions t = apps::TrackingDepthOptionsFromConfig(config);
+  const TrackingDepthOptions d;
+  EXPECT_EQ(t.depth, d.depth);
+  EXPECT_EQ(t.fill, d.fill);
+  EXPECT_EQ(t.min_window_points, d.min_window_points);
+  EXPECT_EQ(t.splat_radius_px, d.splat_radius_px);
+  EXPECT_EQ(t.initial_depth_scale, d.initial_depth_scale);
+  const OdometryOptions o = apps::OdometryOptionsFromConfig(config);
+  EXPECT_EQ(o.mode, OdometryMode::kBoth);
+  EXPECT_EQ(o.tracking.depth, "window");
+}
+
+TEST(BackendConfig, TrackingDepthKeysAreValidated) {
+  const auto load = [](const std::string& text) {
+    return apps::TrackingDepthOptionsFromConfig(
+        io::LoadConfigFromString(text, "t.yaml", io::DfoSchema()));
+  };
+  EXPECT_EQ(load("tracker:\n  depth: source\n").depth, "source");
+  EXPECT_THROW(load("tracker:\n  depth: both\n"), ConfigError);
+  EXPECT_THROW(load("tracker:\n  depth_fill: zeros\n"), ConfigError);
+  EXPECT_THROW(load("tracker:\n  min_window_points: 0\n"), ConfigError);
+  EXPECT_THROW(load("window:\n  initial_depth_scale: network\n"), ConfigError);
+  TrackingDepthOptions bad;
+  bad.splat_radius_px = -1;
+  EXPECT_THROW(bad.Check(), ConfigError);
+}
+
 TEST(BackendConfig, SchemaDefaultsEqualWindowOptionsDefaults) {
   const io::Config config(io::DfoSchema());
   const WindowOptions w = apps::WindowOptionsFromConfig(config);

@@ -315,10 +315,12 @@ class InMemoryProvider : public apps::FrameProvider {
 
 TEST(SequenceRunner, NanDepthIsLostNotACrash) {
   const InMemoryProvider provider(5, /*nan_depth=*/true);
-  Frontend frontend{FrontendOptions{}};
+  OdometryOptions system;
+  system.mode = OdometryMode::kFrontend;
+  Odometry odometry(FrontendOptions{}, system);
   apps::SequenceRunOptions options;
   options.progress_stream = nullptr;
-  const apps::SequenceRunResult result = apps::RunSequence(provider, &frontend, options);
+  const apps::SequenceRunResult result = apps::RunSequence(provider, &odometry, options);
   EXPECT_TRUE(result.error.empty()) << result.error;
   ASSERT_EQ(result.frames.size(), 5u);
   EXPECT_EQ(result.CountStatus(TrackingStatus::kOk), 0);
@@ -331,10 +333,12 @@ TEST(SequenceRunner, NanDepthIsLostNotACrash) {
 
 TEST(SequenceRunner, ErrorHalfWayKeepsTheFramesBefore) {
   const InMemoryProvider provider(6, /*nan_depth=*/false, /*fail_at=*/3);
-  Frontend frontend{FrontendOptions{}};
+  OdometryOptions system;
+  system.mode = OdometryMode::kFrontend;
+  Odometry odometry(FrontendOptions{}, system);
   apps::SequenceRunOptions options;
   options.progress_stream = nullptr;
-  const apps::SequenceRunResult result = apps::RunSequence(provider, &frontend, options);
+  const apps::SequenceRunResult result = apps::RunSequence(provider, &odometry, options);
   EXPECT_EQ(result.frames.size(), 3u);
   EXPECT_EQ(result.frames_in_sequence, 6u);
   EXPECT_NE(result.error.find("frame 3: broken on purpose"), std::string::npos) << result.error;

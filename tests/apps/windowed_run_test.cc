@@ -51,10 +51,15 @@ const CachedProvider& Provider() {
   return *provider;
 }
 
-apps::SequenceRunOptions BothOptions() {
+apps::SequenceRunOptions Quiet() {
   apps::SequenceRunOptions o;
   o.progress_stream = nullptr;
   o.log_stream = nullptr;
+  return o;
+}
+
+OdometryOptions BothOptions() {
+  OdometryOptions o;
   o.mode = apps::RunMode::kBoth;
   // Deterministic (as run.deterministic): one thread, no wall-clock limit on a solve.
   o.window.num_threads = 1;
@@ -81,8 +86,8 @@ std::string ReadFile(const std::string& path) {
 }
 
 TEST(WindowedRun, BothTrajectoriesFromOneFrontendPass) {
-  Frontend frontend(ExternalFrontend());
-  const apps::SequenceRunResult r = apps::RunSequence(Provider(), &frontend, BothOptions());
+  Odometry odometry(ExternalFrontend(), BothOptions());
+  const apps::SequenceRunResult r = apps::RunSequence(Provider(), &odometry, Quiet());
   ASSERT_TRUE(r.error.empty()) << r.error;
   ASSERT_EQ(r.frames.size(), Provider().size());
   EXPECT_EQ(r.poses.num_frames(), static_cast<int>(r.frames.size()));
@@ -132,10 +137,10 @@ TEST(WindowedRun, BothTrajectoriesFromOneFrontendPass) {
 }
 
 TEST(WindowedRun, FrontendModeWritesNoWindowedFiles) {
-  Frontend frontend(ExternalFrontend());
-  apps::SequenceRunOptions o = BothOptions();
+  OdometryOptions o = BothOptions();
   o.mode = apps::RunMode::kFrontend;
-  const apps::SequenceRunResult r = apps::RunSequence(Provider(), &frontend, o);
+  Odometry odometry(ExternalFrontend(), o);
+  const apps::SequenceRunResult r = apps::RunSequence(Provider(), &odometry, Quiet());
   ASSERT_TRUE(r.error.empty()) << r.error;
   for (const apps::KeyframeRecord& k : r.keyframes) EXPECT_FALSE(k.ba_ran);
   const std::string out = test::MakeTempDir("windowed_run_frontend_mode");
@@ -149,12 +154,12 @@ TEST(WindowedRun, FrontendModeWritesNoWindowedFiles) {
 // diverges keeps the previous window state, the run logs why and goes on to the last frame with
 // finite poses everywhere.
 TEST(WindowedRun, NanKeyframeDataDoesNotStopTheRun) {
-  Frontend frontend(ExternalFrontend());
-  apps::SequenceRunOptions o = BothOptions();
+  OdometryOptions o = BothOptions();
+  apps::SequenceRunOptions run = Quiet();
   const std::string log_path = test::MakeTempDir("windowed_run_nan") + "/log.txt";
   std::FILE* log = std::fopen(log_path.c_str(), "w");
   ASSERT_NE(log, nullptr);
-  o.log_stream = log;
+  run.log_stream = log;
   int count = 0;
   o.keyframe_filter = [&count](KeyframeData* kf) {
     ++count;
@@ -169,7 +174,8 @@ TEST(WindowedRun, NanKeyframeDataDoesNotStopTheRun) {
       for (size_t i = 0; i < level.data.size(); i += 7) level.data[i] = nan;
     }
   };
-  const apps::SequenceRunResult r = apps::RunSequence(Provider(), &frontend, o);
+  Odometry odometry(ExternalFrontend(), o);
+  const apps::SequenceRunResult r = apps::RunSequence(Provider(), &odometry, run);
   std::fclose(log);
   ASSERT_TRUE(r.error.empty()) << r.error;
   ASSERT_EQ(r.frames.size(), Provider().size());
@@ -204,8 +210,8 @@ TEST(WindowedRun, NanKeyframeDataDoesNotStopTheRun) {
 TEST(WindowedRun, DeterministicRunsInOneProcessAreByteIdentical) {
   std::string files[2][3];
   for (int run = 0; run < 2; ++run) {
-    Frontend frontend(ExternalFrontend());
-    const apps::SequenceRunResult r = apps::RunSequence(Provider(), &frontend, BothOptions());
+    Odometry odometry(ExternalFrontend(), BothOptions());
+    const apps::SequenceRunResult r = apps::RunSequence(Provider(), &odometry, Quiet());
     ASSERT_TRUE(r.error.empty()) << r.error;
     const std::string out = test::MakeTempDir("windowed_run_det_" + std::to_string(run));
     apps::WriteRunOutputs(r, out, /*plot=*/false);
@@ -225,12 +231,12 @@ TEST(WindowedRun, DeterministicRunsInOneProcessAreByteIdentical) {
 // grows by one small entry per frame only.
 TEST(WindowedRun, WindowStateIsBoundedOverALongRun) {
   static const CachedProvider* long_provider = new CachedProvider(150);
-  Frontend frontend(ExternalFrontend());
-  apps::SequenceRunOptions o = BothOptions();
+  OdometryOptions o = BothOptions();
   o.window.max_keyframes = 5;
   o.window.points_per_keyframe = 60;
   o.window.max_iterations = 3;
-  const apps::SequenceRunResult r = apps::RunSequence(*long_provider, &frontend, o);
+  Odometry odometry(ExternalFrontend(), o);
+  const apps::SequenceRunResult r = apps::RunSequence(*long_provider, &odometry, Quiet());
   ASSERT_TRUE(r.error.empty()) << r.error;
   ASSERT_GE(r.keyframes.size(), 20u);  // several times the window
   const int max_kf = o.window.max_keyframes + 1;

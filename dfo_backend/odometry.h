@@ -1,0 +1,157 @@
+// dfo's whole system as one library class: the frontend (features, depth, tracking), the keyframe
+// manager, the sliding-window bundle adjustment and every frame's pose, fed one frame at a time.
+//
+//   FrontendOptions frontend_options;   // e.g. features "handmade", depth "gt" or "learned"
+//   OdometryOptions options;            // mode, keyframe rules, window, tracking depth
+//   Odometry odometry(frontend_options, options);          // or with learned sources injected
+//   for (const Frame& frame : frames) {
+//     const OdometryFrame out = odometry.Process(frame);
+//     // out.windowed_world_from_cam: the frame's pose now; out.keyframe: it became a keyframe
+//   }
+//   Trajectory all = odometry.WindowedTrajectory();  // every frame, against the final keyframes
+//
+// Per frame: the frontend tracks the frame against the newest keyframe; the keyframe manager
+// decides whether it becomes a keyframe (or, with reference.policy "internal", the frontend's own
+// rule does); a keyframe goes to the window (modes windowed and both), whose optimised keyframe
+// poses move every frame tracked against them (TrajectoryStore). After each window solve the
+// newest keyframe is tracked against the window's optimised points (tracking.depth "window",
+// dfo_backend/tracking_depth.h) instead of its own image's depth, so that what the window learns
+// about depth and scale reaches the next frames at once (DSO, D3VO); a keyframe with too few
+// window points, or a failed solve, keeps its source depth (OdometryFrame::tracking_depth says
+// which). Before a keyframe enters the window its source depth is brought to the window's scale
+// (tracking.initial_depth_scale "window").
+//
+// The frontend-only trajectory composes the same frame-to-keyframe poses on the frontend's own
+// keyframe poses; in mode both with tracking.depth "window" those relative poses were tracked
+// against the window's depths (run mode frontend runs no window and tracks against the source).
+//
+// Process throws InputError for bad frames exactly as Frontend::Process (nothing is booked for
+// that frame; the state stays that of the previous frame); lost tracking and failed solves are
+// statuses and messages, not throws. Synchronous; deterministic for window.num_threads = 1.
+// The frontend is included one way: dfo_backend uses dfo_frontend's public header, never the
+// reverse.
+#ifndef DFO_BACKEND_ODOMETRY_H_
+#define DFO_BACKEND_ODOMETRY_H_
+
+#include <functional>
+#include <memory>
+#include <string>
+#include <vector>
+
+#include "dfo_backend/keyframe_manager.h"
+#include "dfo_backend/tracking_depth.h"
+#include "dfo_backend/trajectory_store.h"
+#include "dfo_backend/window_optimizer.h"
+#include "dfo_core/frame.h"
+#include "dfo_core/keyframe.h"
+#include "dfo_core/trajectory.h"
+#include "dfo_frontend/frontend.h"
+
+namespace dfo {
+
+// What the system estimates (run.mode).
+enum class OdometryMode {
+  kFrontend,  // no window: frame-to-keyframe tracking on the frontend's keyframe poses
+  kWindowed,  // sliding-window bundle adjustment of the keyframes
+  kBoth,      // the windowed estimate and, beside it, the frontend-only one
+};
+
+// "frontend", "windowed", "both".
+const char* OdometryModeName(OdometryMode mode);
+
+// Options of the system besides the frontend's.
+struct OdometryOptions {
+  OdometryMode mode = OdometryMode::kBoth;
+  KeyframeOptions keyframe;        // the keyframe manager (frontend reference.policy "external")
+  WindowOptions window;            // the sliding window (modes windowed and both)
+  TrackingDepthOptions tracking;   // what the tracker aligns with (modes windowed and both)
+  // For tests (fault injection): called on each keyframe's data just before the window gets it.
+  std::function<void(KeyframeData*)> keyframe_filter;
+
+  // Throws ConfigError naming the key (the nested options' Check; the window's only when a
+  // window runs).
+  void Check() const;
+  bool has_window() const { return mode != OdometryMode::kFrontend; }
+};
+
+// What happened at one keyframe.
+struct KeyframeRecord {
+  int frame_index = 0;
+  KeyframeReason reason = KeyframeReason::kNone;  // kNone: the frontend's own (internal) switch
+  bool ba_ran = false;      // the keyframe went to the window (modes kWindowed, kBoth)
+  WindowResult window;      // what WindowOptimizer::AddKeyframe returned (when ba_ran)
+  double backend_ms = 0.0;  // wall time of the keyframe's backend work (window, tracking depth)
+  // What the following frames are tracked against: "window", "source" or "scaled_source" (the
+  // source's map at the window's scale: too few window points), and the why of a fallback.
+  std::string tracking_depth = "source";
+  std::string tracking_depth_note;
+  int tracking_window_points = 0;     // window points inside the keyframe's image
+  double tracking_covered = 0.0;      // fraction of the tracker's finest points on window depth
+  double initial_depth_scale = 1.0;   // factor applied to the keyframe's source depth
+};
+
+// One processed frame.
+struct OdometryFrame {
+  TrackedFrame tracked;  // the frontend's result (its world_from_cam is the frontend chain)
+  // The frame's estimates as of now (later window solves move frames; see the trajectories).
+  SE3d frontend_world_from_cam;
+  SE3d windowed_world_from_cam;  // equals the frontend one in mode kFrontend
+  FrontendTimings timings;       // the frontend's stages
+  bool keyframe = false;         // the frame became a keyframe
+  KeyframeReason keyframe_reason = KeyframeReason::kNone;
+  double backend_ms = 0.0;  // keyframe handling and window time (keyframes only, else 0)
+  // The depth this frame was tracked against ("window", "source", "scaled_source"; "" for a
+  // frame that was not tracked, e.g. the first).
+  std::string tracking_depth;
+  // How the pose store holds the frame: relative to keyframe pose_keyframe_index with kf_from_cam
+  // (-1: kf_from_cam is the absolute pose; a frame that became a keyframe by itself, e.g. a
+  // restart, keeps -1).
+  int pose_keyframe_index = -1;
+  SE3d kf_from_cam;
+};
+
+class Odometry {
+ public:
+  // Sources as Frontend's constructor: null ones are made by name from frontend_options. Throws
+  // ConfigError on bad options, including window.pyramid_level not below tracker.num_levels.
+  Odometry(const FrontendOptions& frontend_options, const OdometryOptions& options,
+           std::unique_ptr<FeatureSource> features = nullptr,
+           std::unique_ptr<DepthSource> depth = nullptr);
+  ~Odometry();
+  Odometry(const Odometry&) = delete;
+  Odometry& operator=(const Odometry&) = delete;
+
+  // Tracks the next frame, decides and handles its keyframe. See the file comment for throws.
+  OdometryFrame Process(const Frame& frame);
+
+  // Every processed frame's pose relative to its keyframe, both trajectories.
+  const TrajectoryStore& poses() const { return poses_; }
+  Trajectory FrontendTrajectory() const { return poses_.FrontendTrajectory(); }
+  Trajectory WindowedTrajectory() const { return poses_.WindowedTrajectory(); }
+  // Keyframes so far, in order.
+  const std::vector<KeyframeRecord>& keyframes() const { return keyframes_; }
+  const Frontend& frontend() const { return *frontend_; }
+  // The window (null in mode kFrontend).
+  const WindowOptimizer* window() const { return window_.get(); }
+  const OdometryOptions& options() const { return options_; }
+  bool has_window() const { return window_ != nullptr; }
+
+ private:
+  void BecomeKeyframe(const TrackedFrame& tracked, KeyframeReason reason, OdometryFrame* out);
+  // Window part of BecomeKeyframe.
+  void AddToWindow(const TrackedFrame& tracked, KeyframeRecord* record);
+
+  OdometryOptions options_;
+  std::unique_ptr<Frontend> frontend_;
+  KeyframeManager manager_;
+  bool external_;  // the keyframe manager decides (reference.policy "external")
+  std::unique_ptr<WindowOptimizer> window_;
+  TrajectoryStore poses_;
+  std::vector<KeyframeRecord> keyframes_;
+  int last_keyframe_ = -1;
+  std::string reference_depth_ = "source";  // what the current reference is tracked against
+};
+
+}  // namespace dfo
+
+#endif  // DFO_BACKEND_ODOMETRY_H_

@@ -1,0 +1,264 @@
+// dfo::Odometry, the system class, and the tracking depth built from the window
+// (dfo_backend/tracking_depth.h): the depth that frames are tracked against after each window
+// solve carries the window's scale, so a depth source whose maps each have their own scale (as a
+// monocular network's) no longer makes the trajectory's scale swing.
+#include "dfo_backend/odometry.h"
+
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <cstdio>
+#include <memory>
+#include <random>
+#include <string>
+#include <vector>
+
+#include "dfo_core/error.h"
+#include "dfo_core/synthetic/synthetic_sequence.h"
+
+namespace dfo {
+namespace {
+
+// ---------------------------------------------------------------------------------------------
+// BuildTrackingDepth / WindowToSourceScale on constructed data.
+
+PinholeCamera Camera(int w, int h) { return PinholeCamera(w * 0.6, w * 0.6, w / 2.0, h / 2.0, w, h); }
+
+DepthPyramid ConstantPyramid(int w, int h, int levels, float depth) {
+  DepthPyramid p;
+  for (int l = 0; l < levels; ++l) p.levels.push_back(ImageF(w >> l, h >> l, 1, depth));
+  return p;
+}
+
+std::vector<PinholeCamera> Cameras(int w, int h, int levels) {
+  std::vector<PinholeCamera> c;
+  for (int l = 0; l < levels; ++l) c.push_back(Camera(w, h).PyramidLevel(l));
+  return c;
+}
+
+// Points at `depth` on a grid over the image of camera `c`.
+std::vector<Eigen::Vector3d> GridPoints(const PinholeCamera& c, double depth, int step) {
+  std::vector<Eigen::Vector3d> points;
+  for (int y = 4; y < c.height - 4; y += step) {
+    for (int x = 4; x < c.width - 4; x += step) {
+      points.push_back(c.Unproject(Eigen::Vector2d(x, y), depth));
+    }
+  }
+  return points;
+}
+
+TEST(TrackingDepth, WindowPointsSetTheScaleAndTheirPixels) {
+  const int w = 64, h = 32, levels = 3;
+  const DepthPyramid source = ConstantPyramid(w, h, levels, 5.0f);
+  const std::vector<PinholeCamera> cameras = Cameras(w, h, levels);
+  const std::vector<Eigen::Vector3d> points = GridPoints(cameras[0], 10.0, 8);
+  TrackingDepthOptions options;
+  options.min_window_points = 5;
+  const TrackingDepth d = BuildTrackingDepth(source, cameras, points, options);
+  ASSERT_TRUE(d.from_window) << d.note;
+  EXPECT_EQ(d.num_points, static_cast<int>(points.size()));
+  EXPECT_DOUBLE_EQ(d.scale, 2.0);  // window 10 m where the source says 5 m
+  ASSERT_EQ(d.depth.num_levels(), levels);
+  // Every valid pixel is at the window's scale: covered ones from the points, the rest filled
+  // with the source times the scale.
+  for (int l = 0; l < levels; ++l) {
+    for (float v : d.depth.levels[l].vector()) EXPECT_FLOAT_EQ(v, 10.0f) << "level " << l;
+  }
+  // The points' 3 x 3 squares are marked covered at the finest level.
+  int covered = 0;
+  for (uint8_t c : d.covered) covered += c;
+  EXPECT_EQ(covered, static_cast<int>(points.size()) * 9);
+  EXPECT_DOUBLE_EQ(WindowToSourceScale(points, source.levels[0], cameras[0], 1), 2.0);
+}
+
+TEST(TrackingDepth, CoveredPixelsTakeTheWindowDepthAndFillNoneLeavesTheRestInvalid) {
+  const int w = 64, h = 32, levels = 2;
+  const DepthPyramid source = ConstantPyramid(w, h, levels, 4.0f);
+  const std::vector<PinholeCamera> cameras = Cameras(w, h, levels);
+  // Most points agree with the source at 2x; one point is far nearer.
+  std::vector<Eigen::Vector3d> points = GridPoints(cameras[0], 8.0, 8);
+  const Eigen::Vector3d near = cameras[0].Unproject(Eigen::Vector2d(30, 15), 1.0);
+  points.push_back(near);
+  TrackingDepthOptions options;
+  options.min_window_points = 3;
+  TrackingDepth d = BuildTrackingDepth(source, cameras, points, options);
+  ASSERT_TRUE(d.from_window);
+  EXPECT_DOUBLE_EQ(d.scale, 2.0);  // the median ignores the odd point
+  EXPECT_FLOAT_EQ(d.depth.levels[0](30, 15), 1.0f);
+  EXPECT_FLOAT_EQ(d.depth.levels[0](0, 0), 8.0f);  // filled: source x scale
+  options.fill = "none";
+  d = BuildTrackingDepth(source, cameras, points, options);
+  ASSERT_TRUE(d.from_window);
+  EXPECT_FLOAT_EQ(d.depth.levels[0](0, 0), 0.0f);  // no window point there
+  EXPECT_FLOAT_EQ(d.depth.levels[0](4, 4), 8.0f);  // a grid point
+}
+
+TEST(TrackingDepth, TooFewPointsSaysWhy) {
+  const DepthPyramid source = ConstantPyramid(32, 16, 1, 3.0f);
+  const std::vector<PinholeCamera> cameras = Cameras(32, 16, 1);
+  TrackingDepthOptions options;
+  options.min_window_points = 50;
+  const TrackingDepth d =
+      BuildTrackingDepth(source, cameras, GridPoints(cameras[0], 3.0, 8), options);
+  EXPECT_FALSE(d.from_window);
+  EXPECT_NE(d.note.find("tracker.min_window_points"), std::string::npos) << d.note;
+  // Points behind the camera or outside the image do not count.
+  std::vector<Eigen::Vector3d> off = {Eigen::Vector3d(0, 0, -2), Eigen::Vector3d(100, 0, 1)};
+  EXPECT_EQ(WindowToSourceScale(off, source.levels[0], cameras[0], 1), 0.0);
+}
+
+// ---------------------------------------------------------------------------------------------
+// The system on synthetic frames.
+
+// The default synthetic street (60 frames), rendered once, with its true poses.
+struct Street {
+  std::vector<Frame> frames;
+  std::vector<SE3d> truth;
+};
+
+const Street& TheStreet() {
+  static const Street* street = [] {
+    SyntheticOptions o;
+    o.num_frames = 60;
+    const SyntheticSequence sequence(o);
+    auto* out = new Street();
+    for (int i = 0; i < o.num_frames; ++i) {
+      SyntheticFrame f = sequence.RenderFrame(i, 2);
+      Frame frame;
+      frame.index = i;
+      frame.timestamp_ns = f.timestamp_ns;
+      frame.image = std::move(f.gray);
+      frame.depth_m = std::move(f.depth);
+      frame.camera = sequence.camera();
+      out->frames.push_back(std::move(frame));
+      out->truth.push_back(f.world_from_cam);
+    }
+    return out;
+  }();
+  return *street;
+}
+
+const std::vector<Frame>& Frames() { return TheStreet().frames; }
+const std::vector<SE3d>& Truth() { return TheStreet().truth; }
+
+// True depth times a factor per image drawn from a log-normal (sigma 0.2, seeded by the frame),
+// as a monocular network gives each image its own scale.
+class RandomScaleDepthSource : public DepthSource {
+ public:
+  std::string name() const override { return "gt"; }
+  DepthPyramid Compute(const Frame& frame, int num_levels) override {
+    DepthPyramid d = truth_.Compute(frame, num_levels);
+    std::mt19937 rng(1000 + frame.index);
+    std::normal_distribution<double> normal(0.0, 0.2);
+    ScaleDepthPyramid(&d, std::exp(normal(rng)));
+    return d;
+  }
+
+ private:
+  GroundTruthDepthSource truth_;
+};
+
+FrontendOptions External() {
+  FrontendOptions o;
+  o.reference.policy = "external";
+  return o;
+}
+
+OdometryOptions Deterministic(OdometryMode mode) {
+  OdometryOptions o;
+  o.mode = mode;
+  o.window.num_threads = 1;
+  o.window.max_solver_time_s = 1e6;
+  return o;
+}
+
+// Spread of the step-length ratio estimate / truth over the frames (coefficient of variation of
+// |t_i - t_(i-1)| ratios, frames with a true step above 1 cm): 0 for a trajectory whose scale
+// never changes, whatever its global scale.
+double StepScaleSpread(const Trajectory& estimate) {
+  std::vector<double> ratios;
+  for (size_t i = 1; i < estimate.size(); ++i) {
+    const double truth =
+        (Truth()[i].translation() - Truth()[i - 1].translation()).norm();
+    if (truth < 0.01) continue;
+    ratios.push_back((estimate[i].world_from_cam.translation() -
+                      estimate[i - 1].world_from_cam.translation())
+                         .norm() /
+                     truth);
+  }
+  double mean = 0.0, sq = 0.0;
+  for (double r : ratios) mean += r;
+  mean /= ratios.size();
+  for (double r : ratios) sq += (r - mean) * (r - mean);
+  return std::sqrt(sq / ratios.size()) / mean;
+}
+
+TEST(Odometry, ProcessesFramesOneAtATimeAndKeepsEveryPose) {
+  Odometry odometry(External(), Deterministic(OdometryMode::kBoth));
+  int keyframes = 0;
+  for (int i = 0; i < 20; ++i) {
+    const OdometryFrame out = odometry.Process(Frames()[i]);
+    EXPECT_EQ(out.tracked.index, i);
+    EXPECT_NE(out.tracked.status, TrackingStatus::kLost) << "frame " << i;
+    EXPECT_TRUE(out.windowed_world_from_cam.translation().allFinite());
+    keyframes += out.keyframe ? 1 : 0;
+    if (i > 0) {
+      EXPECT_FALSE(out.tracking_depth.empty()) << "frame " << i;
+    }
+  }
+  EXPECT_EQ(odometry.poses().num_frames(), 20);
+  EXPECT_EQ(odometry.WindowedTrajectory().size(), 20u);
+  EXPECT_EQ(static_cast<int>(odometry.keyframes().size()), keyframes);
+  EXPECT_GE(keyframes, 3);
+  ASSERT_NE(odometry.window(), nullptr);
+  // After the first solves the keyframes are tracked against the window.
+  int window = 0;
+  for (const KeyframeRecord& k : odometry.keyframes()) window += k.tracking_depth == "window";
+  EXPECT_GE(window, keyframes - 2);
+}
+
+TEST(Odometry, BadInputThrowsAndBooksNothing) {
+  Odometry odometry(External(), Deterministic(OdometryMode::kBoth));
+  odometry.Process(Frames()[0]);
+  Frame broken = Frames()[1];
+  broken.depth_m = ImageF(7, 5, 1, 1.0f);  // wrong size
+  EXPECT_THROW(odometry.Process(broken), InputError);
+  EXPECT_EQ(odometry.poses().num_frames(), 1);
+  EXPECT_NO_THROW(odometry.Process(Frames()[1]));
+  EXPECT_EQ(odometry.poses().num_frames(), 2);
+}
+
+TEST(Odometry, OptionsAreChecked) {
+  OdometryOptions bad = Deterministic(OdometryMode::kBoth);
+  bad.tracking.depth = "network";
+  EXPECT_THROW(Odometry(External(), bad), ConfigError);
+  bad = Deterministic(OdometryMode::kBoth);
+  bad.window.pyramid_level = 4;  // the tracker has 4 levels: 0..3
+  EXPECT_THROW(Odometry(External(), bad), ConfigError);
+  // No window in mode frontend: its options are not even looked at.
+  bad.mode = OdometryMode::kFrontend;
+  Odometry frontend_only(External(), bad);
+  EXPECT_EQ(frontend_only.window(), nullptr);
+}
+
+// The capability: with a depth source whose every map has its own scale, tracking against the
+// window keeps the trajectory's scale where tracking against the source does not.
+TEST(Odometry, TrackingAgainstTheWindowKeepsTheScaleOfAMonocularDepthSource) {
+  double spread[2] = {0, 0};
+  const char* depth[2] = {"source", "window"};
+  for (int k = 0; k < 2; ++k) {
+    OdometryOptions o = Deterministic(OdometryMode::kBoth);
+    o.tracking.depth = depth[k];
+    o.tracking.initial_depth_scale = k == 0 ? "source" : "window";
+    Odometry odometry(External(), o, nullptr, std::make_unique<RandomScaleDepthSource>());
+    for (const Frame& f : Frames()) odometry.Process(f);
+    spread[k] = StepScaleSpread(odometry.WindowedTrajectory());
+  }
+  std::printf("[ figures  ] step-length ratio spread: tracking against the source %.3f, against "
+              "the window %.3f (60 frames, depth scale per image log-normal sigma 0.2)\n",
+              spread[0], spread[1]);
+  EXPECT_LT(spread[1], 0.5 * spread[0]);
+}
+
+}  // namespace
+}  // namespace dfo
