@@ -325,6 +325,11 @@ int Run(const Args& args) {
                                      const Odometry& system) {
       streamer->OnFrame(frame, so_far, system.poses());
     };
+    run_options.solve_observer = [&](const KeyframeRecord& keyframe,
+                                     const apps::SequenceRunResult& so_far,
+                                     const Odometry& system) {
+      streamer->PublishKeyframeBatch(keyframe.frame_index, so_far, system.poses());
+    };
   }
   const apps::SequenceRunResult result = apps::RunSequence(provider, &odometry, run_options);
   if (streamer) streamer->Finish(result);

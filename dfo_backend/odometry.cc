@@ -1,6 +1,8 @@
 #include "dfo_backend/odometry.h"
 
 #include <chrono>
+#include <exception>
+#include <future>
 #include <utility>
 
 #include "dfo_core/error.h"
@@ -18,6 +20,15 @@ double MsSince(std::chrono::steady_clock::time_point start) {
 }
 
 }  // namespace
+
+// A keyframe's window solve, in flight on the backend thread (or about to run inline).
+struct Odometry::PendingSolve {
+  int frame_index = -1;
+  std::future<WindowResult> result;
+  DepthPyramid keyframe_depth;  // the source's, brought to the window's scale
+  std::vector<PinholeCamera> cameras;
+  std::chrono::steady_clock::time_point start;
+};
 
 const char* OdometryModeName(OdometryMode mode) {
   switch (mode) {
@@ -61,10 +72,15 @@ Odometry::Odometry(const FrontendOptions& frontend_options, const OdometryOption
   }
 }
 
-Odometry::~Odometry() = default;
+Odometry::~Odometry() {
+  // A solve still running on the backend thread ends before the window it works on.
+  if (pending_ && pending_->result.valid()) pending_->result.wait();
+}
 
 OdometryFrame Odometry::Process(const Frame& frame) {
   OdometryFrame out;
+  // A solve that finished on the backend thread since the last frame is applied first.
+  out.solved_keyframe = ApplyPendingSolve(/*wait=*/false);
   const bool tracked_against_reference = frontend_->tracker().has_reference();
   const std::string tracked_depth = reference_depth_;
   out.tracked = frontend_->Process(frame);  // throws on bad input: nothing booked
@@ -84,7 +100,6 @@ OdometryFrame Odometry::Process(const Frame& frame) {
     // keyframe only through the frontend's poses.
     poses_.AddKeyframe(t.index, t.timestamp_ns, t.world_from_cam);
     out.kf_from_cam = t.world_from_cam;
-    reference_depth_ = "source";
     BecomeKeyframe(t, decision.reason, &out);
     return finish();
   }
@@ -109,7 +124,6 @@ OdometryFrame Odometry::Process(const Frame& frame) {
   }
   if (switched) {
     poses_.PromoteToKeyframe(t.index);
-    reference_depth_ = "source";
     BecomeKeyframe(t, external_ ? decision.reason : KeyframeReason::kNone, &out);
   }
   return finish();
@@ -123,42 +137,86 @@ void Odometry::BecomeKeyframe(const TrackedFrame& t, KeyframeReason reason, Odom
   KeyframeRecord kf;
   kf.frame_index = t.index;
   kf.reason = reason;
-  if (window_) {
-    const auto start = std::chrono::steady_clock::now();
-    AddToWindow(t, &kf);
-    kf.backend_ms = MsSince(start);
-    out->backend_ms = kf.backend_ms;
-  }
-  reference_depth_ = kf.tracking_depth;
   keyframes_.push_back(std::move(kf));
+  reference_depth_ = "source";
+  if (!window_) return;
+  const auto start = std::chrono::steady_clock::now();
+  // The window takes one keyframe at a time: the previous solve finishes first.
+  const int solved = ApplyPendingSolve(/*wait=*/true);
+  if (solved >= 0) out->solved_keyframe = solved;
+  SubmitToWindow(t);
+  if (!options_.backend_thread) {
+    ApplyPendingSolve(/*wait=*/true);
+    out->solved_keyframe = t.index;
+  }
+  out->backend_ms = MsSince(start);
 }
 
-void Odometry::AddToWindow(const TrackedFrame& t, KeyframeRecord* kf) {
+void Odometry::SubmitToWindow(const TrackedFrame& t) {
+  KeyframeRecord& kf = keyframes_.back();
   KeyframeData data;
   const bool ok = frontend_->MakeLastFrameReference(&data);
   DFO_CHECK(ok) << "frame " << t.index << " is the reference but has no keyframe data";
   // The window works in the windowed trajectory's frame: the keyframe starts at its keyframe's
   // bundle-adjusted pose composed with the tracked relative pose.
   data.world_from_cam = poses_.WindowedPose(t.index);
-  std::vector<PinholeCamera> cameras;
-  for (const FeatureLevel& level : data.features.levels) cameras.push_back(level.camera);
+  auto pending = std::make_unique<PendingSolve>();
+  pending->frame_index = t.index;
+  pending->start = std::chrono::steady_clock::now();
+  for (const FeatureLevel& level : data.features.levels) pending->cameras.push_back(level.camera);
   const TrackingDepthOptions& tracking = options_.tracking;
   // The new points start at the window's scale, not at the image's own (network) scale.
   if (tracking.initial_depth_scale == "window" && window_->num_keyframes() > 0 &&
-      data.depth.num_levels() > 0 && !cameras.empty()) {
+      data.depth.num_levels() > 0 && !pending->cameras.empty()) {
     const double scale =
         WindowToSourceScale(window_->PointsInCamera(data.world_from_cam), data.depth.levels[0],
-                            cameras[0], tracking.min_window_points);
+                            pending->cameras[0], tracking.min_window_points);
     if (scale > 0.0) {
       data.initial_depth_scale = scale;  // the depth prior stays toward the source's own depth
-      kf->initial_depth_scale = scale;
+      kf.initial_depth_scale = scale;
     }
   }
-  DepthPyramid keyframe_depth = data.depth;  // the source's, brought to the window's scale
-  ScaleDepthPyramid(&keyframe_depth, kf->initial_depth_scale);
+  pending->keyframe_depth = data.depth;
+  ScaleDepthPyramid(&pending->keyframe_depth, kf.initial_depth_scale);
+  // While the solve runs on the backend thread, the next frames are tracked against the source's
+  // depth at the window's scale.
+  if (options_.backend_thread && tracking.depth == "window" && kf.initial_depth_scale != 1.0 &&
+      frontend_->SetReferenceDepth(t.index, pending->keyframe_depth)) {
+    kf.tracking_depth = reference_depth_ = "scaled_source";
+  }
   if (options_.keyframe_filter) options_.keyframe_filter(&data);
-  kf->window = window_->AddKeyframe(std::move(data));
+  WindowOptimizer* window = window_.get();
+  if (options_.backend_thread) {
+    pending->result = std::async(std::launch::async, [window, d = std::move(data)]() mutable {
+      return window->AddKeyframe(std::move(d));
+    });
+  } else {
+    std::promise<WindowResult> promise;
+    pending->result = promise.get_future();
+    try {
+      promise.set_value(window->AddKeyframe(std::move(data)));
+    } catch (...) {
+      promise.set_exception(std::current_exception());
+    }
+  }
+  pending_ = std::move(pending);
+}
+
+int Odometry::ApplyPendingSolve(bool wait) {
+  if (!pending_) return -1;
+  if (!wait && pending_->result.wait_for(std::chrono::seconds(0)) != std::future_status::ready) {
+    return -1;
+  }
+  const std::unique_ptr<PendingSolve> pending = std::move(pending_);
+  KeyframeRecord* kf = nullptr;
+  for (auto it = keyframes_.rbegin(); it != keyframes_.rend() && kf == nullptr; ++it) {
+    if (it->frame_index == pending->frame_index) kf = &*it;
+  }
+  DFO_CHECK(kf != nullptr) << "no keyframe record for frame " << pending->frame_index;
+  kf->window = pending->result.get();  // rethrows what AddKeyframe threw
   kf->ba_ran = true;
+  kf->backend_ms = MsSince(pending->start);
+  const int t = pending->frame_index;
   bool finite = true;
   for (const auto& [index, pose] : kf->window.keyframe_poses) finite &= IsFinitePose(pose);
   if (kf->window.optimized && finite) {
@@ -171,38 +229,47 @@ void Odometry::AddToWindow(const TrackedFrame& t, KeyframeRecord* kf) {
     kf->window.message = "non-finite keyframe pose after the solve; poses not taken";
   }
 
-  // What the next frames are tracked against.
-  if (tracking.depth != "window") return;
-  const bool in_window = !window_->PointsInKeyframe(t.index).empty();
-  if (kf->window.optimized && in_window) {
+  // What the next frames are tracked against (only while the keyframe is still the reference).
+  const TrackingDepthOptions& tracking = options_.tracking;
+  if (tracking.depth != "window" || last_keyframe_ != t) return t;
+  const auto set_depth = [&](const DepthPyramid& depth, const char* name) {
+    if (!frontend_->SetReferenceDepth(t, depth)) return false;
+    kf->tracking_depth = reference_depth_ = name;
+    return true;
+  };
+  const std::vector<Eigen::Vector3d> points = window_->PointsInKeyframe(t);
+  if (kf->window.optimized && !points.empty()) {
     const TrackingDepth depth =
-        BuildTrackingDepth(keyframe_depth, cameras, window_->PointsInKeyframe(t.index), tracking);
+        BuildTrackingDepth(pending->keyframe_depth, pending->cameras, points, tracking);
     kf->tracking_window_points = depth.num_points;
     if (depth.from_window) {
-      if (frontend_->SetReferenceDepth(t.index, depth.depth)) {
-        kf->tracking_depth = "window";
-        const std::vector<Eigen::Vector2i> points = frontend_->tracker().reference_points(0);
+      if (set_depth(depth.depth, "window")) {
+        const std::vector<Eigen::Vector2i> selected = frontend_->tracker().reference_points(0);
         int covered = 0;
-        const int width = cameras[0].width;
-        for (const Eigen::Vector2i& p : points) {
+        const int width = pending->cameras[0].width;
+        for (const Eigen::Vector2i& p : selected) {
           covered += depth.covered[static_cast<size_t>(p.y()) * width + p.x()] ? 1 : 0;
         }
-        kf->tracking_covered = points.empty() ? 0.0 : double(covered) / points.size();
-        return;
+        kf->tracking_covered = selected.empty() ? 0.0 : double(covered) / selected.size();
+        return t;
       }
       kf->tracking_depth_note = "the window depth selects too few tracker points";
     } else {
       kf->tracking_depth_note = depth.note;
     }
   } else {
-    kf->tracking_depth_note = !kf->window.optimized
-                                  ? "no window solve at this keyframe"
-                                  : "the keyframe has no window points";
+    kf->tracking_depth_note = !kf->window.optimized ? "no window solve at this keyframe"
+                                                    : "the keyframe has no window points";
   }
   // Fallback: the source's depth at the window's scale (when it was rescaled).
-  if (kf->initial_depth_scale != 1.0 && frontend_->SetReferenceDepth(t.index, keyframe_depth)) {
-    kf->tracking_depth = "scaled_source";
+  if (kf->tracking_depth != "scaled_source" && kf->initial_depth_scale != 1.0) {
+    set_depth(pending->keyframe_depth, "scaled_source");
   }
+  return t;
+}
+
+int Odometry::Flush() {
+  return ApplyPendingSolve(/*wait=*/true);
 }
 
 }  // namespace dfo

@@ -27,7 +27,9 @@
 //
 // Process throws InputError for bad frames exactly as Frontend::Process (nothing is booked for
 // that frame; the state stays that of the previous frame); lost tracking and failed solves are
-// statuses and messages, not throws. Synchronous; deterministic for window.num_threads = 1.
+// statuses and messages, not throws. Synchronous by default, deterministic for
+// window.num_threads = 1; with OdometryOptions::backend_thread the window solves on its own
+// thread. Not thread-safe: one thread calls Process.
 // The frontend is included one way: dfo_backend uses dfo_frontend's public header, never the
 // reverse.
 #ifndef DFO_BACKEND_ODOMETRY_H_
@@ -65,6 +67,13 @@ struct OdometryOptions {
   KeyframeOptions keyframe;        // the keyframe manager (frontend reference.policy "external")
   WindowOptions window;            // the sliding window (modes windowed and both)
   TrackingDepthOptions tracking;   // what the tracker aligns with (modes windowed and both)
+  // run.backend_thread: window solves run on their own thread, so that a keyframe's solve does
+  // not stall the frames behind it; the frames until it finishes are tracked against the
+  // keyframe's source depth at the window's scale, and its results (poses, tracking depth) are
+  // applied at the first Process call after it finished (OdometryFrame::solved_keyframe), or
+  // when the next keyframe needs the window. Results then depend on timing: false gives the
+  // sequential, deterministic order (dfo_run: run.deterministic forces false).
+  bool backend_thread = false;
   // For tests (fault injection): called on each keyframe's data just before the window gets it.
   std::function<void(KeyframeData*)> keyframe_filter;
 
@@ -103,6 +112,9 @@ struct OdometryFrame {
   // The depth this frame was tracked against ("window", "source", "scaled_source"; "" for a
   // frame that was not tracked, e.g. the first).
   std::string tracking_depth;
+  // The keyframe whose window solve was applied during this call (-1: none): the frame itself
+  // when it became a keyframe (sequential mode), or an earlier keyframe (backend thread).
+  int solved_keyframe = -1;
   // How the pose store holds the frame: relative to keyframe pose_keyframe_index with kf_from_cam
   // (-1: kf_from_cam is the absolute pose; a frame that became a keyframe by itself, e.g. a
   // restart, keeps -1).
@@ -121,8 +133,12 @@ class Odometry {
   Odometry(const Odometry&) = delete;
   Odometry& operator=(const Odometry&) = delete;
 
-  // Tracks the next frame, decides and handles its keyframe. See the file comment for throws.
+  // Tracks the next frame, decides and handles its keyframe. See the file comment for throws
+  // (with the backend thread, an error of an earlier keyframe's solve is rethrown here).
   OdometryFrame Process(const Frame& frame);
+  // Waits for a solve still running on the backend thread and applies it; returns its keyframe's
+  // frame index (-1: none). Call it after the last frame, before reading the results.
+  int Flush();
 
   // Every processed frame's pose relative to its keyframe, both trajectories.
   const TrajectoryStore& poses() const { return poses_; }
@@ -131,15 +147,21 @@ class Odometry {
   // Keyframes so far, in order.
   const std::vector<KeyframeRecord>& keyframes() const { return keyframes_; }
   const Frontend& frontend() const { return *frontend_; }
-  // The window (null in mode kFrontend).
+  // The window (null in mode kFrontend). Not while a solve runs on the backend thread: Flush()
+  // first.
   const WindowOptimizer* window() const { return window_.get(); }
   const OdometryOptions& options() const { return options_; }
   bool has_window() const { return window_ != nullptr; }
 
  private:
+  struct PendingSolve;
   void BecomeKeyframe(const TrackedFrame& tracked, KeyframeReason reason, OdometryFrame* out);
-  // Window part of BecomeKeyframe.
-  void AddToWindow(const TrackedFrame& tracked, KeyframeRecord* record);
+  // Hands the new keyframe (keyframes_.back()) to the window: on the backend thread, or solved
+  // at once; either way pending_ holds the result until ApplyPendingSolve.
+  void SubmitToWindow(const TrackedFrame& tracked);
+  // Applies the pending solve (waiting for it when `wait`, else only when it has finished):
+  // windowed poses, then the keyframe's tracking depth. Returns its frame index, -1 if none.
+  int ApplyPendingSolve(bool wait);
 
   OdometryOptions options_;
   std::unique_ptr<Frontend> frontend_;
@@ -150,6 +172,7 @@ class Odometry {
   std::vector<KeyframeRecord> keyframes_;
   int last_keyframe_ = -1;
   std::string reference_depth_ = "source";  // what the current reference is tracked against
+  std::unique_ptr<PendingSolve> pending_;   // a keyframe's solve not yet applied
 };
 
 }  // namespace dfo

@@ -6,6 +6,7 @@
 #include <array>
 #include <chrono>
 #include <cmath>
+#include <limits>
 #include <map>
 #include <sstream>
 
@@ -125,6 +126,11 @@ void WindowOptions::Check() const {
           min_point_fraction, "in [0, 1]");
   Require(min_marginalized_observations >= 1, "window.min_marginalized_observations",
           min_marginalized_observations, ">= 1");
+  Require(std::isfinite(depth_search_range) && depth_search_range >= 1.0 &&
+              depth_search_range <= 10.0,
+          "window.depth_search_range", depth_search_range, "in [1, 10]");
+  Require(std::isfinite(depth_search_uniqueness) && depth_search_uniqueness >= 1.0,
+          "window.depth_search_uniqueness", depth_search_uniqueness, ">= 1");
   Require(prior_weight > 0.0 && prior_weight <= 1.0, "backend.prior_weight", prior_weight,
           "in (0, 1]");
   Require(relative_eigenvalue_floor > 0.0 && relative_eigenvalue_floor < 1.0,
@@ -199,6 +205,14 @@ std::vector<std::pair<int, double>> WindowOptimizer::PointInverseDepths() const 
   std::vector<std::pair<int, double>> out;
   for (const auto& p : points_)
     out.emplace_back(FindKeyframe(p->host_id)->frame_index, p->inverse_depth);
+  return out;
+}
+
+std::vector<WindowOptimizer::PointInfo> WindowOptimizer::Points() const {
+  std::vector<PointInfo> out;
+  for (const auto& p : points_) {
+    out.push_back({FindKeyframe(p->host_id)->frame_index, p->x, p->y, p->inverse_depth});
+  }
   return out;
 }
 
@@ -340,6 +354,73 @@ void WindowOptimizer::ConnectNewKeyframe(KeyframeState* new_kf) {
     }
   }
   RemovePointsWithoutResiduals();
+}
+
+void WindowOptimizer::SearchNewPointDepths(const KeyframeState* new_kf, WindowResult* result) {
+  const double range = options_.depth_search_range;
+  constexpr int kMaxSteps = 200;
+  std::vector<double> residuals;
+  for (auto& p : points_) {
+    if (p->host_id != new_kf->id || p->residuals.empty()) continue;
+    const double rho0 = p->inverse_depth;
+    const double lo = std::max(rho0 / range, options_.min_inverse_depth), hi = rho0 * range;
+    if (!(hi > lo)) continue;
+    // Length in pixels of the epipolar segment [lo, hi] in the target where it is longest.
+    const Eigen::Vector3d ray = new_kf->level.camera.Unproject(Eigen::Vector2d(p->x, p->y), 1.0);
+    const SE3d world_from_host = PoseFromParameters(new_kf->pose);
+    double length = 0.0;
+    for (const auto& [target_id, block] : p->residuals) {
+      const KeyframeState* target = FindKeyframe(target_id);
+      const SE3d target_from_host = PoseFromParameters(target->pose).Inverse() * world_from_host;
+      const Eigen::Vector3d a = target_from_host * Eigen::Vector3d(ray / lo);
+      const Eigen::Vector3d b = target_from_host * Eigen::Vector3d(ray / hi);
+      if (!(a.z() > 0.0) || !(b.z() > 0.0)) continue;
+      length = std::max(length, (target->level.camera.Project(a) -
+                                 target->level.camera.Project(b)).norm());
+    }
+    if (!(length >= 2.0)) continue;  // too little parallax to tell depths apart
+    ++result->num_depth_searched;
+    const int steps = std::min(kMaxSteps, static_cast<int>(std::ceil(length)) + 1);
+    std::vector<double> energy(steps, 0.0);
+    bool finite = true;
+    for (int i = 0; i < steps && finite; ++i) {
+      const double rho = lo + (hi - lo) * i / (steps - 1);
+      for (const auto& [target_id, block] : p->residuals) {
+        const FeatureMetricCost& cost = *block.cost;
+        residuals.resize(cost.num_residuals());
+        if (!cost.EvaluateTangent(new_kf->pose, FindKeyframe(target_id)->pose, rho,
+                                  residuals.data(), nullptr, nullptr, nullptr)) {
+          finite = false;
+          break;
+        }
+        double squared = 0.0;
+        for (double r : residuals) squared += r * r;
+        double robust[3];
+        loss_->Evaluate(squared, robust);
+        energy[i] += robust[0];
+      }
+    }
+    if (!finite) continue;
+    const int best = static_cast<int>(std::min_element(energy.begin(), energy.end()) -
+                                      energy.begin());
+    double second = std::numeric_limits<double>::infinity();
+    for (int i = 0; i < steps; ++i) {
+      if (std::abs(i - best) <= 2) continue;
+      const bool local_min =
+          (i == 0 || energy[i] <= energy[i - 1]) && (i == steps - 1 || energy[i] <= energy[i + 1]);
+      if (local_min) second = std::min(second, energy[i]);
+    }
+    if (!(second >= options_.depth_search_uniqueness * energy[best])) continue;
+    // Sub-step minimum of the parabola through the best sample and its neighbours.
+    double offset = 0.0;
+    if (best > 0 && best < steps - 1) {
+      const double a = energy[best - 1], b = energy[best], c = energy[best + 1];
+      const double curvature = a - 2.0 * b + c;
+      if (curvature > 0.0) offset = std::clamp(0.5 * (a - c) / curvature, -0.5, 0.5);
+    }
+    p->inverse_depth = lo + (hi - lo) * (best + offset) / (steps - 1);
+    ++result->num_depth_moved;
+  }
 }
 
 void WindowOptimizer::RemovePointsWithoutResiduals() {
@@ -659,6 +740,7 @@ WindowResult WindowOptimizer::AddKeyframe(KeyframeData data) {
   ConnectNewKeyframe(new_kf);
 
   WindowResult result;
+  if (options_.depth_search_range > 1.0) SearchNewPointDepths(new_kf, &result);
   const auto solve_start = std::chrono::steady_clock::now();
   if (keyframes_.size() < 2) {
     result.message = "nothing to optimise (one keyframe)";

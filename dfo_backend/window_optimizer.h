@@ -126,6 +126,19 @@ struct WindowOptions {
   // Points of the leaving keyframe with at least this many residual blocks are marginalised, the
   // rest dropped; >= 1.
   int min_marginalized_observations = 2;
+  // Depth search of new points (DSO's epipolar search of immature points, done against the
+  // keyframes already in the window, whose poses are known): before the solve, each point of the
+  // new keyframe tries inverse depths from rho0 / depth_search_range to rho0 * depth_search_range
+  // (rho0: its starting inverse depth), one step per pixel of travel along its epipolar line in
+  // the target with the longest line, and the sum over its blocks of the robustified feature-
+  // metric cost picks the best; the point starts there when that best is unique (the lowest cost
+  // at least depth_search_uniqueness times below every other local minimum more than 2 steps
+  // away) and the line is at least 2 px long, else it keeps rho0. A wrong source depth is then
+  // corrected by parallax before the solve, whose basin is a pixel or two wide. The depth prior
+  // stays toward the source's depth. depth_search_range: 1 = off, else in (1, 10];
+  // depth_search_uniqueness >= 1.
+  double depth_search_range = 1.0;
+  double depth_search_uniqueness = 1.2;
   // backend.marginalization: marginalise into a prior (true) or only drop (false).
   bool marginalization = true;
   // backend.first_estimate_jacobians: the prior's Jacobian stays the one at its linearisation
@@ -167,6 +180,10 @@ struct WindowResult {
   int num_residual_blocks = 0;
   // Number of blocks the outlier gate dropped.
   int num_gated_blocks = 0;
+  // Depth search (WindowOptions::depth_search_range): new points searched, and those that moved
+  // to a unique best inverse depth.
+  int num_depth_searched = 0;
+  int num_depth_moved = 0;
   // Wall time of the solves (both) and of the marginalisation, milliseconds.
   double solve_ms = 0.0;
   double marginalization_ms = 0.0;
@@ -200,6 +217,13 @@ class WindowOptimizer {
   std::vector<int> PriorFrameIndices() const;
   // Inverse depth and host frame index of every live point (for tests and diagnostics).
   std::vector<std::pair<int, double>> PointInverseDepths() const;
+  // Every live point: host frame index, pixel at the BA level and inverse depth (diagnostics).
+  struct PointInfo {
+    int host_frame = 0;
+    int x = 0, y = 0;
+    double inverse_depth = 0.0;
+  };
+  std::vector<PointInfo> Points() const;
   // Every live point (one with at least one residual block, or any point while the window holds
   // one keyframe) moved into the camera frame of window keyframe `frame_index` with the window's
   // current poses and inverse depths: what DSO's tracker builds its depth from. Points behind
@@ -217,6 +241,8 @@ class WindowOptimizer {
 
   void SelectPoints(KeyframeState* keyframe);
   void ConnectNewKeyframe(KeyframeState* keyframe);
+  // WindowOptions::depth_search_range; fills the result's depth-search counts.
+  void SearchNewPointDepths(const KeyframeState* keyframe, WindowResult* result);
   // One Ceres solve over the current state; false with *why on failure (state untouched then).
   // coarse: on pyramid_level + 1 (the warm-up), with blocks for the same (point, target) pairs.
   bool Solve(int max_iterations, double* initial_cost, double* final_cost, std::string* why,

@@ -293,6 +293,16 @@ ConfigSchema BuildSchema() {
               "first (DSO: 5 %)")
       .Min(0)
       .Max(1);
+  s.AddDouble("window.depth_search_range", 1.0,
+              "Depth search of a new keyframe's points along their epipolar lines in the window's "
+              "keyframes, over inverse depths within this factor of the start (a wrong source "
+              "depth corrected by parallax before the solve); 1 = off")
+      .Min(1)
+      .Max(10);
+  s.AddDouble("window.depth_search_uniqueness", 1.2,
+              "A searched point moves only when its best cost is this many times below every "
+              "other local minimum (more than 2 px away)")
+      .Min(1);
   s.AddString("window.initial_depth_scale", "window",
               "Where a new keyframe's points start: its source depth times the median ratio of "
               "the window's points seen from it to that depth (window: the window's scale; the "
@@ -331,6 +341,10 @@ ConfigSchema BuildSchema() {
   s.AddBool("run.deterministic", true,
             "Identical results run to run (fixed seeds, ordered reductions; the window solves "
             "with one thread and no time limit), possibly slower");
+  s.AddBool("run.backend_thread", false,
+            "Window solves on their own thread, so that a keyframe's solve does not stall the "
+            "frames behind it (results then depend on timing; ignored with run.deterministic: "
+            "true, which keeps the sequential order)");
   s.AddInt("run.threads", 2,
            "Worker threads of the frontend and of the window's Ceres solves (1 for Ceres with "
            "run.deterministic); 0 = all hardware threads")

@@ -50,6 +50,8 @@ WindowOptions WindowOptionsFromConfig(const io::Config& config) {
   o.outlier_gate_factor = config.GetDouble("window.outlier_gate_factor");
   o.min_point_fraction = config.GetDouble("window.min_point_fraction");
   o.min_marginalized_observations = config.GetInt("window.min_marginalized_observations");
+  o.depth_search_range = config.GetDouble("window.depth_search_range");
+  o.depth_search_uniqueness = config.GetDouble("window.depth_search_uniqueness");
   o.marginalization = config.GetBool("backend.marginalization");
   o.first_estimate_jacobians = config.GetBool("backend.first_estimate_jacobians");
   o.prior_weight = config.GetDouble("backend.prior_weight");
@@ -86,6 +88,7 @@ OdometryOptions OdometryOptionsFromConfig(const io::Config& config) {
   o.keyframe = KeyframeOptionsFromConfig(config);
   o.window = WindowOptionsFromConfig(config);
   o.tracking = TrackingDepthOptionsFromConfig(config);
+  o.backend_thread = config.GetBool("run.backend_thread") && !config.GetBool("run.deterministic");
   o.Check();
   return o;
 }

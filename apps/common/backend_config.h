@@ -47,7 +47,7 @@ std::string ReferencePolicyFromConfig(const io::Config& config);
 TrackingDepthOptions TrackingDepthOptionsFromConfig(const io::Config& config);
 
 // The whole OdometryOptions of a configuration (run.mode, keyframe.*, window.*, backend.*, the
-// tracking depth), checked.
+// tracking depth, run.backend_thread unless run.deterministic), checked.
 OdometryOptions OdometryOptionsFromConfig(const io::Config& config);
 
 }  // namespace dfo::apps

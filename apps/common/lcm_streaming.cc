@@ -101,33 +101,41 @@ void LcmRunStreamer::OnFrame(const FrameRecord& frame, const SequenceRunResult& 
   }
   if (result.has_windowed()) {
     publish_pose(stored ? store.WindowedPose(t.index) : SE3d(), dfo::pose_t::SOURCE_WINDOWED);
-    const KeyframeRecord* kf = result.keyframes.empty() ? nullptr : &result.keyframes.back();
-    if (frame.keyframe && kf != nullptr && kf->frame_index == t.index && kf->ba_ran) {
-      // The store's windowed poses of the window's keyframes: the solve's result when it was
-      // kept, the previous ones when not.
-      dfo::keyframe_batch_t batch{};
-      batch.utime = io::NsToUtime(t.timestamp_ns);
-      batch.frame_index = t.index;
-      batch.optimized = kf->window.optimized ? 1 : 0;
-      const auto add = [&](int index, bool in_window) {
-        if (!store.IsKeyframe(index)) return;
-        const auto stamp = timestamps_ns_.find(index);
-        batch.keyframes.push_back(
-            io::MakeKeyframePose(index, stamp != timestamps_ns_.end() ? stamp->second : 0,
-                                 store.WindowedPose(index), in_window));
-      };
-      for (const auto& [index, pose] : kf->window.keyframe_poses) add(index, true);
-      if (kf->window.marginalized_frame_index >= 0) {
-        add(kf->window.marginalized_frame_index, false);
-      }
-      batch.num_keyframes = static_cast<int32_t>(batch.keyframes.size());
-      publisher_.Publish(options_.channels.keyframes, batch);
-    }
+    // The keyframe whose solve was applied with this frame (the frame itself, or an earlier
+    // keyframe when the window solves on the backend thread).
+    if (frame.solved_keyframe >= 0) PublishKeyframeBatch(frame.solved_keyframe, result, store);
   }
   PublishStatus(result);
   publish_ms_.push_back(
       std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - begin).count());
   publish_cpu_ms_.push_back(ThreadCpuMs() - cpu_begin_ms);
+}
+
+void LcmRunStreamer::PublishKeyframeBatch(int keyframe_index, const SequenceRunResult& result,
+                                          const TrajectoryStore& store) {
+  const KeyframeRecord* kf = nullptr;
+  for (auto it = result.keyframes.rbegin(); it != result.keyframes.rend() && kf == nullptr; ++it) {
+    if (it->frame_index == keyframe_index) kf = &*it;
+  }
+  if (kf == nullptr || !kf->ba_ran) return;
+  // The store's windowed poses of the window's keyframes: the solve's result when it was kept,
+  // the previous ones when not.
+  const auto stamp = timestamps_ns_.find(kf->frame_index);
+  dfo::keyframe_batch_t batch{};
+  batch.utime = io::NsToUtime(stamp != timestamps_ns_.end() ? stamp->second : last_timestamp_ns_);
+  batch.frame_index = kf->frame_index;
+  batch.optimized = kf->window.optimized ? 1 : 0;
+  const auto add = [&](int index, bool in_window) {
+    if (!store.IsKeyframe(index)) return;
+    const auto found = timestamps_ns_.find(index);
+    batch.keyframes.push_back(io::MakeKeyframePose(
+        index, found != timestamps_ns_.end() ? found->second : 0, store.WindowedPose(index),
+        in_window));
+  };
+  for (const auto& [index, pose] : kf->window.keyframe_poses) add(index, true);
+  if (kf->window.marginalized_frame_index >= 0) add(kf->window.marginalized_frame_index, false);
+  batch.num_keyframes = static_cast<int32_t>(batch.keyframes.size());
+  publisher_.Publish(options_.channels.keyframes, batch);
 }
 
 void LcmRunStreamer::Finish(const SequenceRunResult& result) {

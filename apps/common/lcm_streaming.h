@@ -15,9 +15,11 @@
 //   pose_channel       a dfo.pose_t with the frontend-only pose (modes frontend and both) and one
 //                      with the windowed pose (modes windowed and both), each with the keyframe
 //                      it is composed on;
-//   keyframes_channel  when the frame became a keyframe and went to the window: a
-//                      dfo.keyframe_batch_t with every window keyframe's windowed pose after the
-//                      bundle adjustment (and the keyframe that left, in_window = false);
+//   keyframes_channel  when a keyframe's window solve was applied with this frame (the frame
+//                      itself when it became a keyframe; an earlier keyframe with
+//                      run.backend_thread): a dfo.keyframe_batch_t (frame_index: that keyframe)
+//                      with every window keyframe's windowed pose after the bundle adjustment
+//                      (and the keyframe that left, in_window = false);
 //   status_channel     a dfo.run_status_t (frames done, fps so far, keyframes, lost).
 // Finish publishes a last status and one dfo.stop_t. The same messages go to lcm.url
 // (lcm.enable) and into the event log lcm.log_path (when set).
@@ -63,6 +65,11 @@ class LcmRunStreamer {
   // `poses`: the system's poses as of this frame (Odometry::poses()).
   void OnFrame(const FrameRecord& frame, const SequenceRunResult& result,
                const TrajectoryStore& poses);
+  // The keyframes_channel message of keyframe `keyframe_index` (its record in result.keyframes)
+  // with the window keyframes' poses in `store`; OnFrame calls it for the frame's
+  // solved_keyframe; dfo_run calls it for a solve applied after the last frame (backend thread).
+  void PublishKeyframeBatch(int keyframe_index, const SequenceRunResult& result,
+                            const TrajectoryStore& store);
   // After the run: the final status and the stop message (reason "finished", or the run's error).
   void Finish(const SequenceRunResult& result);
 

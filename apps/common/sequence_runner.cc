@@ -65,6 +65,39 @@ int SequenceRunResult::CountStatus(TrackingStatus status) const {
   return n;
 }
 
+namespace {
+
+// Copies the record of keyframe `frame_index` once its window solve was applied, and logs a solve
+// that was not kept.
+void RefreshKeyframe(const Odometry& odometry, int frame_index, const SequenceRunOptions& options,
+                     SequenceRunResult* result) {
+  const KeyframeRecord* source = nullptr;
+  for (auto it = odometry.keyframes().rbegin(); it != odometry.keyframes().rend(); ++it) {
+    if (it->frame_index == frame_index) {
+      source = &*it;
+      break;
+    }
+  }
+  if (source == nullptr) return;
+  for (auto it = result->keyframes.rbegin(); it != result->keyframes.rend(); ++it) {
+    if (it->frame_index == frame_index) {
+      *it = *source;
+      break;
+    }
+  }
+  const KeyframeRecord& kf = *source;
+  if (kf.ba_ran && !kf.window.optimized && kf.window.keyframe_poses.size() >= 2 &&
+      options.log_stream != nullptr) {
+    std::fprintf(options.log_stream,
+                 "%s: warning: bundle adjustment at keyframe %d kept the previous window "
+                 "state: %s\n",
+                 options.label.c_str(), kf.frame_index,
+                 kf.window.message.empty() ? "no reason given" : kf.window.message.c_str());
+  }
+}
+
+}  // namespace
+
 SequenceRunResult RunSequence(const FrameProvider& provider, Odometry* odometry,
                               const SequenceRunOptions& options) {
   SequenceRunResult result;
@@ -102,19 +135,13 @@ SequenceRunResult RunSequence(const FrameProvider& provider, Odometry* odometry,
       record.kf_from_cam = out.kf_from_cam;
       record.tracking_depth = out.tracking_depth;
       lost += record.tracked.status == TrackingStatus::kLost ? 1 : 0;
+      record.solved_keyframe = out.solved_keyframe;
       if (out.keyframe) {
         const KeyframeRecord& kf = odometry->keyframes().back();
         result.keyframes.push_back(kf);
-        if (kf.ba_ran) record.keyframe_depth_scale = kf.initial_depth_scale;
-        if (kf.ba_ran && !kf.window.optimized && kf.window.keyframe_poses.size() >= 2 &&
-            options.log_stream != nullptr) {
-          std::fprintf(options.log_stream,
-                       "%s: warning: bundle adjustment at keyframe %d kept the previous window "
-                       "state: %s\n",
-                       options.label.c_str(), kf.frame_index,
-                       kf.window.message.empty() ? "no reason given" : kf.window.message.c_str());
-        }
+        if (odometry->has_window()) record.keyframe_depth_scale = kf.initial_depth_scale;
       }
+      if (out.solved_keyframe >= 0) RefreshKeyframe(*odometry, out.solved_keyframe, options, &result);
       record.total_ms = MillisecondsSince(frame_start);
       result.frames.push_back(std::move(record));
       if (options.frame_observer) options.frame_observer(result.frames.back(), result, *odometry);
@@ -123,6 +150,20 @@ SequenceRunResult RunSequence(const FrameProvider& provider, Odometry* odometry,
       break;
     }
     progress.Update(result.frames.size(), status_text());
+  }
+  // A solve still running on the backend thread belongs to the run.
+  try {
+    const int solved = odometry->Flush();
+    if (solved >= 0) {
+      RefreshKeyframe(*odometry, solved, options, &result);
+      if (options.solve_observer) {
+        for (const KeyframeRecord& kf : result.keyframes) {
+          if (kf.frame_index == solved) options.solve_observer(kf, result, *odometry);
+        }
+      }
+    }
+  } catch (const std::exception& e) {
+    if (result.error.empty()) result.error = e.what();
   }
   result.poses = odometry->poses();
   result.wall_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();

@@ -104,6 +104,10 @@ struct SequenceRunOptions {
   // like a bad frame.
   std::function<void(const FrameRecord&, const SequenceRunResult&, const Odometry&)>
       frame_observer;
+  // Called once after the last frame when a window solve still running on the backend thread
+  // was applied then (Odometry::Flush), with its keyframe's record (already in result.keyframes).
+  std::function<void(const KeyframeRecord&, const SequenceRunResult&, const Odometry&)>
+      solve_observer;
 };
 
 // One processed frame.
@@ -120,6 +124,9 @@ struct FrameRecord {
   double total_ms = 0.0;    // load + Frontend::Process + keyframe handling + backend
   // The depth the frame was tracked against (OdometryFrame::tracking_depth).
   std::string tracking_depth;
+  // The keyframe whose window solve was applied while this frame was processed (-1: none;
+  // OdometryFrame::solved_keyframe).
+  int solved_keyframe = -1;
   // Keyframes that went to the window: the factor that brought the source's depth to the
   // window's scale (KeyframeRecord::initial_depth_scale); 0 otherwise.
   double keyframe_depth_scale = 0.0;

@@ -78,6 +78,8 @@ TEST(BackendConfig, SchemaDefaultsEqualWindowOptionsDefaults) {
   EXPECT_EQ(w.outlier_gate_factor, d.outlier_gate_factor);
   EXPECT_EQ(w.min_point_fraction, d.min_point_fraction);
   EXPECT_EQ(w.min_marginalized_observations, d.min_marginalized_observations);
+  EXPECT_EQ(w.depth_search_range, d.depth_search_range);
+  EXPECT_EQ(w.depth_search_uniqueness, d.depth_search_uniqueness);
   EXPECT_EQ(w.marginalization, d.marginalization);
   EXPECT_EQ(w.first_estimate_jacobians, d.first_estimate_jacobians);
   EXPECT_EQ(w.prior_weight, d.prior_weight);

@@ -169,6 +169,28 @@ TEST(LcmConfig, SharedChannelOrEmptyUrlIsAnError) {
 
 // The log dfo_run writes holds, per frame, the poses of both estimates; read back (in-process
 // and by dfo_lcm_listen --log) it gives the trajectory files byte for byte.
+// The window on its own thread: its solves are published when applied (the last one after the
+// last frame), and the log still gives back the windowed trajectory file.
+TEST(LcmRun, BackendThreadLogReadBackEqualsTheTrajectoryFile) {
+  const std::string dir = test::MakeTempDir("lcm_log_run_thread");
+  const std::string out = dir + "/run";
+  const std::string log = dir + "/run.lcmlog";
+  const CommandResult r = RunCommand(
+      DFO_RUN_EXE, RunArgs(out) + " --set run.deterministic=false --set run.backend_thread=true" +
+                       " --set lcm.log_path=" + log);
+  ASSERT_EQ(r.status, 0) << r.out << r.err;
+  io::LcmTrajectoryCollector collector;
+  io::ReadLcmLog(log, [&](const std::string& channel, const void* data, size_t size) {
+    collector.Handle(channel, data, size);
+    return true;
+  });
+  const io::JsonValue summary = io::ParseJson(Slurp(out + "/summary.json"), "summary.json");
+  EXPECT_EQ(collector.counts().keyframe_batches, summary["keyframes"]["count"].AsInt());
+  EXPECT_EQ(summary["keyframes"]["ba_runs"].AsInt() + 1, summary["keyframes"]["count"].AsInt());
+  io::WriteTumTrajectory(dir + "/windowed_from_log.txt", collector.WindowedTrajectory());
+  EXPECT_EQ(Slurp(dir + "/windowed_from_log.txt"), Slurp(out + "/windowed_tum.txt"));
+}
+
 TEST(LcmRun, LogReadBackEqualsTheTrajectoryFiles) {
   const std::string dir = test::MakeTempDir("lcm_log_run");
   const std::string out = dir + "/run";
