@@ -25,7 +25,7 @@ double MsSince(std::chrono::steady_clock::time_point start) {
 struct Odometry::PendingSolve {
   int frame_index = -1;
   std::future<WindowResult> result;
-  DepthPyramid keyframe_depth;  // the source's, brought to the window's scale
+  DepthPyramid keyframe_depth;  // the source's, brought to the window's scale when known
   std::vector<PinholeCamera> cameras;
   std::chrono::steady_clock::time_point start;
 };
@@ -165,22 +165,23 @@ void Odometry::SubmitToWindow(const TrackedFrame& t) {
   pending->start = std::chrono::steady_clock::now();
   for (const FeatureLevel& level : data.features.levels) pending->cameras.push_back(level.camera);
   const TrackingDepthOptions& tracking = options_.tracking;
-  // The new points start at the window's scale, not at the image's own (network) scale.
-  if (tracking.initial_depth_scale == "window" && window_->num_keyframes() > 0 &&
-      data.depth.num_levels() > 0 && !pending->cameras.empty()) {
-    const double scale =
+  // The factor that brings the source's depth to the window's scale (median over the window's
+  // points seen from the keyframe's starting pose): for the tracking depth until (or instead of)
+  // the window's own, and, with initial_depth_scale "window", for the new points' start.
+  if (window_->num_keyframes() > 0 && data.depth.num_levels() > 0 && !pending->cameras.empty()) {
+    kf.window_scale =
         WindowToSourceScale(window_->PointsInCamera(data.world_from_cam), data.depth.levels[0],
                             pending->cameras[0], tracking.min_window_points);
-    if (scale > 0.0) {
-      data.initial_depth_scale = scale;  // the depth prior stays toward the source's own depth
-      kf.initial_depth_scale = scale;
-    }
+  }
+  if (tracking.initial_depth_scale == "window" && kf.window_scale > 0.0) {
+    data.initial_depth_scale = kf.window_scale;  // the depth prior stays toward the source's
+    kf.initial_depth_scale = kf.window_scale;
   }
   pending->keyframe_depth = data.depth;
-  ScaleDepthPyramid(&pending->keyframe_depth, kf.initial_depth_scale);
+  if (kf.window_scale > 0.0) ScaleDepthPyramid(&pending->keyframe_depth, kf.window_scale);
   // While the solve runs on the backend thread, the next frames are tracked against the source's
   // depth at the window's scale.
-  if (options_.backend_thread && tracking.depth == "window" && kf.initial_depth_scale != 1.0 &&
+  if (options_.backend_thread && tracking.depth == "window" && kf.window_scale > 0.0 &&
       frontend_->SetReferenceDepth(t.index, pending->keyframe_depth)) {
     kf.tracking_depth = reference_depth_ = "scaled_source";
   }
@@ -261,8 +262,8 @@ int Odometry::ApplyPendingSolve(bool wait) {
     kf->tracking_depth_note = !kf->window.optimized ? "no window solve at this keyframe"
                                                     : "the keyframe has no window points";
   }
-  // Fallback: the source's depth at the window's scale (when it was rescaled).
-  if (kf->tracking_depth != "scaled_source" && kf->initial_depth_scale != 1.0) {
+  // Fallback: the source's depth at the window's scale (when the window had points to tell it).
+  if (kf->tracking_depth != "scaled_source" && kf->window_scale > 0.0) {
     set_depth(pending->keyframe_depth, "scaled_source");
   }
   return t;

@@ -18,8 +18,9 @@
 // dfo_backend/tracking_depth.h) instead of its own image's depth, so that what the window learns
 // about depth and scale reaches the next frames at once (DSO, D3VO); a keyframe with too few
 // window points, or a failed solve, keeps its source depth (OdometryFrame::tracking_depth says
-// which). Before a keyframe enters the window its source depth is brought to the window's scale
-// (tracking.initial_depth_scale "window").
+// which). A new keyframe's points start at its source depth (or at the window's scale with
+// tracking.initial_depth_scale "window") and are searched along their epipolar lines in the
+// window's keyframes (WindowOptions::depth_search_range) before the solve.
 //
 // The frontend-only trajectory composes the same frame-to-keyframe poses on the frontend's own
 // keyframe poses; in mode both with tracking.depth "window" those relative poses were tracked
@@ -96,7 +97,11 @@ struct KeyframeRecord {
   std::string tracking_depth_note;
   int tracking_window_points = 0;     // window points inside the keyframe's image
   double tracking_covered = 0.0;      // fraction of the tracker's finest points on window depth
-  double initial_depth_scale = 1.0;   // factor applied to the keyframe's source depth
+  // Median ratio of the window's depth to the source's over the window points seen from the
+  // keyframe's starting pose (0: no window yet or too few points), and the factor its points
+  // started at (TrackingDepthOptions::initial_depth_scale; 1 = the source's depth).
+  double window_scale = 0.0;
+  double initial_depth_scale = 1.0;
 };
 
 // One processed frame.

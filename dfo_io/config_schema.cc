@@ -293,21 +293,21 @@ ConfigSchema BuildSchema() {
               "first (DSO: 5 %)")
       .Min(0)
       .Max(1);
-  s.AddDouble("window.depth_search_range", 1.0,
+  s.AddDouble("window.depth_search_range", 2.0,
               "Depth search of a new keyframe's points along their epipolar lines in the window's "
               "keyframes, over inverse depths within this factor of the start (a wrong source "
               "depth corrected by parallax before the solve); 1 = off")
       .Min(1)
       .Max(10);
-  s.AddDouble("window.depth_search_uniqueness", 1.2,
+  s.AddDouble("window.depth_search_uniqueness", 2.0,
               "A searched point moves only when its best cost is this many times below every "
               "other local minimum (more than 2 px away)")
       .Min(1);
-  s.AddString("window.initial_depth_scale", "window",
-              "Where a new keyframe's points start: its source depth times the median ratio of "
-              "the window's points seen from it to that depth (window: the window's scale; the "
-              "depth prior still pulls toward the source's own depth), or the source's depth "
-              "(source)")
+  s.AddString("window.initial_depth_scale", "source",
+              "Where a new keyframe's points start: the source's depth (source; the depth search "
+              "and the solve bring them to the window's scale), or that depth times the median "
+              "ratio of the window's points seen from the keyframe to it (window; measured to feed "
+              "the window's scale error back on real video)")
       .OneOf({"window", "source"});
   s.AddInt("window.min_marginalized_observations", 2,
            "Points of a leaving keyframe with at least this many residual blocks are "

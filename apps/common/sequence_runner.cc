@@ -139,7 +139,7 @@ SequenceRunResult RunSequence(const FrameProvider& provider, Odometry* odometry,
       if (out.keyframe) {
         const KeyframeRecord& kf = odometry->keyframes().back();
         result.keyframes.push_back(kf);
-        if (odometry->has_window()) record.keyframe_depth_scale = kf.initial_depth_scale;
+        if (odometry->has_window()) record.keyframe_depth_scale = kf.window_scale;
       }
       if (out.solved_keyframe >= 0) RefreshKeyframe(*odometry, out.solved_keyframe, options, &result);
       record.total_ms = MillisecondsSince(frame_start);
@@ -278,7 +278,7 @@ io::JsonValue TrackingDepthToJson(const SequenceRunResult& result) {
   for (const KeyframeRecord& k : result.keyframes) {
     ++keyframes[k.tracking_depth];
     if (!k.ba_ran) continue;
-    scales.push_back(k.initial_depth_scale);
+    if (k.window_scale > 0.0) scales.push_back(k.window_scale);
     if (k.tracking_depth == "window") {
       points.push_back(k.tracking_window_points);
       covered.push_back(k.tracking_covered);
@@ -302,7 +302,7 @@ io::JsonValue TrackingDepthToJson(const SequenceRunResult& result) {
   };
   t.Set("median_window_points", median(points));
   t.Set("median_covered_fraction", median(covered));
-  t.Set("median_initial_depth_scale", median(scales));
+  t.Set("median_window_scale", median(scales));
   if (window) t.Set("fallbacks", std::move(fallbacks));
   return t;
 }

@@ -29,8 +29,8 @@
 //                         load_ms, features_ms, depth_ms, tracking_ms, backend_ms, total_ms,
 //                         tracking_depth (window, source or scaled_source: what the frame was
 //                         tracked against; empty for frames not tracked), keyframe_depth_scale
-//                         (keyframes in the window: the factor that brought the depth source's
-//                         map to the window's scale, 1 when not rescaled; empty otherwise)
+//                         (keyframes in the window: the median ratio of the window's depth to the
+//                         depth source's map seen from the keyframe; empty otherwise or unknown)
 //   summary.json          see MakeRunSummary
 //   frontend_trajectory.png  top view of ground truth and Sim3-aligned estimate coloured by ATE
 //                         (only when at least 3 processed frames have ground truth and plot);
@@ -127,8 +127,8 @@ struct FrameRecord {
   // The keyframe whose window solve was applied while this frame was processed (-1: none;
   // OdometryFrame::solved_keyframe).
   int solved_keyframe = -1;
-  // Keyframes that went to the window: the factor that brought the source's depth to the
-  // window's scale (KeyframeRecord::initial_depth_scale); 0 otherwise.
+  // Keyframes that went to the window: the median ratio of the window's depth to the source's
+  // seen from the keyframe (KeyframeRecord::window_scale); 0 otherwise or when unknown.
   double keyframe_depth_scale = 0.0;
   // How the pose store holds the frame before it may become a keyframe: relative to keyframe
   // pose_keyframe_index with kf_from_cam (-1: kf_from_cam is the absolute pose; a frame that
@@ -205,8 +205,8 @@ RunEvaluation EvaluateEstimate(const SequenceRunResult& result, const Trajectory
 //               window solve; source in mode frontend), "fill" (tracker.depth_fill, with
 //               window), "frames": {depth: frames tracked against it}, "keyframes": {depth:
 //               keyframes}, "median_window_points", "median_covered_fraction" (of the tracker's
-//               finest points on a window point's depth), "median_initial_depth_scale" (factor
-//               applied to new keyframes' source depth; null without samples), "fallbacks":
+//               finest points on a window point's depth), "median_window_scale" (median ratio
+//               of window to source depth at new keyframes; null without samples), "fallbacks":
 //               [{"frame", "depth", "message"}] (at most 20; with window)},
 //   "timing_ms": {"load", "features", "depth", "tracking", "total_per_frame",
 //               "backend_per_keyframe", "ba_solve_per_keyframe",

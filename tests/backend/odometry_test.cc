@@ -286,8 +286,7 @@ TEST(Odometry, TrackingAgainstTheWindowKeepsTheScaleOfAMonocularDepthSource) {
   const char* depth[2] = {"source", "window"};
   for (int k = 0; k < 2; ++k) {
     OdometryOptions o = Deterministic(OdometryMode::kBoth);
-    o.tracking.depth = depth[k];
-    o.tracking.initial_depth_scale = k == 0 ? "source" : "window";
+    o.tracking.depth = depth[k];  // the rest as by default
     Odometry odometry(External(), o, nullptr, std::make_unique<RandomScaleDepthSource>());
     for (const Frame& f : Frames()) odometry.Process(f);
     spread[k] = StepScaleSpread(odometry.WindowedTrajectory());
