@@ -134,8 +134,9 @@ struct WindowOptions {
   // metric cost picks the best; the point starts there when that best is unique (the lowest cost
   // at least depth_search_uniqueness times below every other local minimum more than 2 steps
   // away) and the line is at least 2 px long, else it keeps rho0. A wrong source depth is then
-  // corrected by parallax before the solve, whose basin is a pixel or two wide. The depth prior
-  // stays toward the source's depth. depth_search_range: 1 = off, else in (1, 10];
+  // corrected by parallax before the solve, whose basin is a pixel or two wide. The search
+  // trusts the keyframes' current poses (a new keyframe's from tracking): with poses decimetres
+  // off it picks wrong depths. The depth prior stays toward the source's depth. depth_search_range: 1 = off, else in (1, 10];
   // depth_search_uniqueness >= 1. Defaults (2, 2) measured on real video
   // (docs/tracking_against_the_window.md).
   double depth_search_range = 2.0;
