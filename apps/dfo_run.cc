@@ -145,6 +145,21 @@ void PrintComparison(const apps::SequenceRunResult& result, const apps::RunOutpu
               << " residual blocks";
   }
   std::cout << "\n";
+  // What the frames were tracked against (tracker.depth).
+  const io::JsonValue& t = outputs.summary["tracking_depth"];
+  if (t["depth"].AsString() == "window") {
+    int tracked = 0;
+    for (const auto& [name, count] : t["frames"].members()) tracked += count.AsInt();
+    const int window = t["frames"].Has("window") ? t["frames"]["window"].AsInt() : 0;
+    std::cout << "tracking:    " << window << " of " << tracked
+              << " tracked frames against the window's depths";
+    if (!t["median_covered_fraction"].IsNull()) {
+      std::cout << " (a window point under " << apps::FormatFixed(
+                       100.0 * t["median_covered_fraction"].AsNumber(), 0)
+                << " % of the tracker's points, median)";
+    }
+    std::cout << "; the rest against the depth source's (tracker.depth = window)\n";
+  }
 
   struct Column {
     const char* name;

@@ -165,6 +165,7 @@ SequenceRunResult RunSequence(const FrameProvider& provider, Odometry* odometry,
   } catch (const std::exception& e) {
     if (result.error.empty()) result.error = e.what();
   }
+  result.keyframes = odometry->keyframes();  // complete, whatever was applied when
   result.poses = odometry->poses();
   result.wall_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
   progress.Finish(result.frames.size(), status_text());
