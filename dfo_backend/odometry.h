@@ -8,6 +8,7 @@
 //     const OdometryFrame out = odometry.Process(frame);
 //     // out.windowed_world_from_cam: the frame's pose now; out.keyframe: it became a keyframe
 //   }
+//   odometry.Flush();                                 // a solve still on the backend thread
 //   Trajectory all = odometry.WindowedTrajectory();  // every frame, against the final keyframes
 //
 // Per frame: the frontend tracks the frame against the newest keyframe; the keyframe manager
@@ -17,8 +18,8 @@
 // newest keyframe is tracked against the window's optimised points (tracking.depth "window",
 // dfo_backend/tracking_depth.h) instead of its own image's depth, so that what the window learns
 // about depth and scale reaches the next frames at once (DSO, D3VO); a keyframe with too few
-// window points, or a failed solve, keeps its source depth (OdometryFrame::tracking_depth says
-// which). A new keyframe's points start at its source depth (or at the window's scale with
+// window points, or a failed solve, keeps its source depth, brought to the window's scale when
+// the window's points could tell it (OdometryFrame::tracking_depth says which). A new keyframe's points start at its source depth (or at the window's scale with
 // tracking.initial_depth_scale "window") and are searched along their epipolar lines in the
 // window's keyframes (WindowOptions::depth_search_range) before the solve.
 //
