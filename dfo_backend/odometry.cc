@@ -51,8 +51,8 @@ void OdometryOptions::Check() const {
 Odometry::Odometry(const FrontendOptions& frontend_options, const OdometryOptions& options,
                    std::unique_ptr<FeatureSource> features, std::unique_ptr<DepthSource> depth)
     : options_((options.Check(), options)),
-      frontend_(std::make_unique<Frontend>(frontend_options, std::move(features),
-                                           std::move(depth))),
+      frontend_(
+          std::make_unique<Frontend>(frontend_options, std::move(features), std::move(depth))),
       manager_(options.keyframe),
       external_(frontend_options.reference.policy == "external") {
   if (options_.has_window()) {
@@ -62,11 +62,10 @@ Odometry::Odometry(const FrontendOptions& frontend_options, const OdometryOption
                         " violates < tracker.num_levels (" + std::to_string(levels) + ")");
     }
     if (options_.window.coarse_iterations > 0 && options_.window.pyramid_level + 1 >= levels) {
-      throw ConfigError("window.coarse_iterations = " +
-                        std::to_string(options_.window.coarse_iterations) +
-                        " needs window.pyramid_level + 1 < tracker.num_levels (" +
-                        std::to_string(levels) +
-                        "); set window.coarse_iterations=0 or use more tracker levels");
+      throw ConfigError(
+          "window.coarse_iterations = " + std::to_string(options_.window.coarse_iterations) +
+          " needs window.pyramid_level + 1 < tracker.num_levels (" + std::to_string(levels) +
+          "); set window.coarse_iterations=0 or use more tracker levels");
     }
     window_ = std::make_unique<WindowOptimizer>(options_.window);
   }
@@ -269,8 +268,6 @@ int Odometry::ApplyPendingSolve(bool wait) {
   return t;
 }
 
-int Odometry::Flush() {
-  return ApplyPendingSolve(/*wait=*/true);
-}
+int Odometry::Flush() { return ApplyPendingSolve(/*wait=*/true); }
 
 }  // namespace dfo

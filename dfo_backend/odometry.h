@@ -19,9 +19,10 @@
 // dfo_backend/tracking_depth.h) instead of its own image's depth, so that what the window learns
 // about depth and scale reaches the next frames at once (DSO, D3VO); a keyframe with too few
 // window points, or a failed solve, keeps its source depth, brought to the window's scale when
-// the window's points could tell it (OdometryFrame::tracking_depth says which). A new keyframe's points start at its source depth (or at the window's scale with
-// tracking.initial_depth_scale "window") and are searched along their epipolar lines in the
-// window's keyframes (WindowOptions::depth_search_range) before the solve.
+// the window's points could tell it (OdometryFrame::tracking_depth says which). A new keyframe's
+// points start at its source depth (or at the window's scale with tracking.initial_depth_scale
+// "window") and are searched along their epipolar lines in the window's keyframes
+// (WindowOptions::depth_search_range) before the solve.
 //
 // The frontend-only trajectory composes the same frame-to-keyframe poses on the frontend's own
 // keyframe poses; in mode both with tracking.depth "window" those relative poses were tracked
@@ -66,9 +67,9 @@ const char* OdometryModeName(OdometryMode mode);
 // Options of the system besides the frontend's.
 struct OdometryOptions {
   OdometryMode mode = OdometryMode::kBoth;
-  KeyframeOptions keyframe;        // the keyframe manager (frontend reference.policy "external")
-  WindowOptions window;            // the sliding window (modes windowed and both)
-  TrackingDepthOptions tracking;   // what the tracker aligns with (modes windowed and both)
+  KeyframeOptions keyframe;       // the keyframe manager (frontend reference.policy "external")
+  WindowOptions window;           // the sliding window (modes windowed and both)
+  TrackingDepthOptions tracking;  // what the tracker aligns with (modes windowed and both)
   // run.backend_thread: window solves run on their own thread, so that a keyframe's solve does
   // not stall the frames behind it; the frames until it finishes are tracked against the
   // keyframe's source depth at the window's scale, and its results (poses, tracking depth) are
@@ -96,8 +97,8 @@ struct KeyframeRecord {
   // source's map at the window's scale: too few window points), and the why of a fallback.
   std::string tracking_depth = "source";
   std::string tracking_depth_note;
-  int tracking_window_points = 0;     // window points inside the keyframe's image
-  double tracking_covered = 0.0;      // fraction of the tracker's finest points on window depth
+  int tracking_window_points = 0;  // window points inside the keyframe's image
+  double tracking_covered = 0.0;   // fraction of the tracker's finest points on window depth
   // Median ratio of the window's depth to the source's over the window points seen from the
   // keyframe's starting pose (0: no window yet or too few points), and the factor its points
   // started at (TrackingDepthOptions::initial_depth_scale; 1 = the source's depth).

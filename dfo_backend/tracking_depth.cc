@@ -30,13 +30,12 @@ bool PixelOf(const Eigen::Vector3d& p, const PinholeCamera& camera, int* x, int*
 }  // namespace
 
 void TrackingDepthOptions::Check() const {
-  CheckKey(depth == "window" || depth == "source", "tracker.depth", depth,
-           "one of window|source");
+  CheckKey(depth == "window" || depth == "source", "tracker.depth", depth, "one of window|source");
   CheckKey(fill == "scaled_source" || fill == "none", "tracker.depth_fill", fill,
            "one of scaled_source|none");
   CheckKey(min_window_points >= 1, "tracker.min_window_points", min_window_points, ">= 1");
-  CheckKey(splat_radius_px >= 0 && splat_radius_px <= 8, "tracker.splat_radius_px",
-           splat_radius_px, "in [0, 8]");
+  CheckKey(splat_radius_px >= 0 && splat_radius_px <= 8, "tracker.splat_radius_px", splat_radius_px,
+           "in [0, 8]");
   CheckKey(initial_depth_scale == "window" || initial_depth_scale == "source",
            "window.initial_depth_scale", initial_depth_scale, "one of window|source");
 }

@@ -53,12 +53,12 @@ struct TrackingDepthOptions {
 
 // The result of BuildTrackingDepth.
 struct TrackingDepth {
-  DepthPyramid depth;          // levels as the source pyramid (m, 0 = invalid)
-  int num_points = 0;          // window points projecting inside the finest level
-  double scale = 0.0;          // median (window depth / source depth); 0 when unknown
+  DepthPyramid depth;            // levels as the source pyramid (m, 0 = invalid)
+  int num_points = 0;            // window points projecting inside the finest level
+  double scale = 0.0;            // median (window depth / source depth); 0 when unknown
   std::vector<uint8_t> covered;  // finest level, row-major: 1 where a window point gave the depth
-  bool from_window = false;    // false: too few points (depth is empty)
-  std::string note;            // why from_window is false
+  bool from_window = false;      // false: too few points (depth is empty)
+  std::string note;              // why from_window is false
 };
 
 // Median over `points` (camera frame of the keyframe) that project inside `camera` onto a valid

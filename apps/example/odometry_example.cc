@@ -8,13 +8,12 @@
 // intrinsics of those images in pixels; MODEL is a dfo model file (default models/default.dfo),
 // whose depth network gives each frame's depth. Frames are resized to the model's input size.
 // Prints one line per frame: index status tx ty tz qx qy qz qw (camera-to-world, windowed).
-#include <opencv2/imgcodecs.hpp>
-#include <opencv2/imgproc.hpp>
-
 #include <algorithm>
 #include <cstdio>
 #include <exception>
 #include <filesystem>
+#include <opencv2/imgcodecs.hpp>
+#include <opencv2/imgproc.hpp>
 #include <string>
 #include <vector>
 

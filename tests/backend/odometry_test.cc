@@ -22,7 +22,9 @@ namespace {
 // ---------------------------------------------------------------------------------------------
 // BuildTrackingDepth / WindowToSourceScale on constructed data.
 
-PinholeCamera Camera(int w, int h) { return PinholeCamera(w * 0.6, w * 0.6, w / 2.0, h / 2.0, w, h); }
+PinholeCamera Camera(int w, int h) {
+  return PinholeCamera(w * 0.6, w * 0.6, w / 2.0, h / 2.0, w, h);
+}
 
 DepthPyramid ConstantPyramid(int w, int h, int levels, float depth) {
   DepthPyramid p;
@@ -178,13 +180,12 @@ OdometryOptions Deterministic(OdometryMode mode) {
 double StepScaleSpread(const Trajectory& estimate) {
   std::vector<double> ratios;
   for (size_t i = 1; i < estimate.size(); ++i) {
-    const double truth =
-        (Truth()[i].translation() - Truth()[i - 1].translation()).norm();
+    const double truth = (Truth()[i].translation() - Truth()[i - 1].translation()).norm();
     if (truth < 0.01) continue;
-    ratios.push_back((estimate[i].world_from_cam.translation() -
-                      estimate[i - 1].world_from_cam.translation())
-                         .norm() /
-                     truth);
+    ratios.push_back(
+        (estimate[i].world_from_cam.translation() - estimate[i - 1].world_from_cam.translation())
+            .norm() /
+        truth);
   }
   double mean = 0.0, sq = 0.0;
   for (double r : ratios) mean += r;
@@ -291,9 +292,10 @@ TEST(Odometry, TrackingAgainstTheWindowKeepsTheScaleOfAMonocularDepthSource) {
     for (const Frame& f : Frames()) odometry.Process(f);
     spread[k] = StepScaleSpread(odometry.WindowedTrajectory());
   }
-  std::printf("[ figures  ] step-length ratio spread: tracking against the source %.3f, against "
-              "the window %.3f (60 frames, depth scale per image log-normal sigma 0.2)\n",
-              spread[0], spread[1]);
+  std::printf(
+      "[ figures  ] step-length ratio spread: tracking against the source %.3f, against "
+      "the window %.3f (60 frames, depth scale per image log-normal sigma 0.2)\n",
+      spread[0], spread[1]);
   EXPECT_LT(spread[1], 0.5 * spread[0]);
 }
 
