@@ -46,6 +46,7 @@ options:
   --iterations I         WindowOptions::max_iterations (default: the option's default)
   --time-limit S         WindowOptions::max_solver_time_s (default: the option's default)
   --depth-prior W        WindowOptions::depth_prior_weight (default 0)
+  --depth-search R       WindowOptions::depth_search_range (default: the option's default; 1 = off)
   --level L              WindowOptions::pyramid_level (default 0)
   --patch K              WindowOptions::patch_size (default: the option's default)
   --max-stretch S        WindowOptions::max_patch_stretch (default: the option's default)
@@ -108,6 +109,8 @@ Args Parse(int argc, char** argv) {
       args.window.max_solver_time_s = std::atof(next());
     } else if (flag == "--depth-prior") {
       args.window.depth_prior_weight = std::atof(next());
+    } else if (flag == "--depth-search") {
+      args.window.depth_search_range = std::atof(next());
     } else if (flag == "--level") {
       args.window.pyramid_level = ParseInt(flag, next());
     } else if (flag == "--patch") {
