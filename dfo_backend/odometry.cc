@@ -177,7 +177,7 @@ void Odometry::SubmitToWindow(const TrackedFrame& t) {
     kf.initial_depth_scale = kf.window_scale;
   }
   pending->keyframe_depth = data.depth;
-  if (kf.window_scale > 0.0) ScaleDepthPyramid(&pending->keyframe_depth, kf.window_scale);
+  if (kf.window_scale > 0.0) pending->keyframe_depth.Scale(kf.window_scale);
   // While the solve runs on the backend thread, the next frames are tracked against the source's
   // depth at the window's scale.
   if (options_.backend_thread && tracking.depth == "window" && kf.window_scale > 0.0 &&

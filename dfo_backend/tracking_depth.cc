@@ -121,10 +121,4 @@ TrackingDepth BuildTrackingDepth(const DepthPyramid& source,
   return out;
 }
 
-void ScaleDepthPyramid(DepthPyramid* depth, double scale) {
-  for (ImageF& level : depth->levels) {
-    for (float& d : level.vector()) d = static_cast<float>(d * scale);
-  }
-}
-
 }  // namespace dfo

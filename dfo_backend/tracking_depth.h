@@ -75,9 +75,6 @@ TrackingDepth BuildTrackingDepth(const DepthPyramid& source,
                                  const std::vector<Eigen::Vector3d>& points,
                                  const TrackingDepthOptions& options);
 
-// Multiplies every valid depth of the pyramid by `scale`.
-void ScaleDepthPyramid(DepthPyramid* depth, double scale);
-
 }  // namespace dfo
 
 #endif  // DFO_BACKEND_TRACKING_DEPTH_H_

@@ -44,6 +44,12 @@ double DepthPyramid::MeanDepth(int l) const {
   return n > 0 ? sum / static_cast<double>(n) : 0.0;
 }
 
+void DepthPyramid::Scale(double factor) {
+  for (ImageF& level : levels) {
+    for (float& d : level.vector()) d = static_cast<float>(d * factor);
+  }
+}
+
 int DepthPyramid::NumValid(int l) const {
   DFO_CHECK(l >= 0 && l < num_levels()) << l;
   int n = 0;

@@ -65,6 +65,8 @@ struct DepthPyramid {
   double MeanDepth(int l) const;
   // Number of valid depths of level l.
   int NumValid(int l) const;
+  // Multiplies every depth of every level by `factor` (invalid zeros stay zero).
+  void Scale(double factor);
 };
 
 }  // namespace dfo

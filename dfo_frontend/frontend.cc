@@ -47,13 +47,6 @@ bool IsFinite(const SE3d& pose) {
 // Fewest point pairs for a depth-scale estimate.
 constexpr int kMinScalePairs = 20;
 
-// Multiplies every valid depth of the pyramid by `scale`.
-void ScaleDepth(DepthPyramid* depth, double scale) {
-  for (ImageF& level : depth->levels) {
-    for (float& d : level.vector()) d = static_cast<float>(d * scale);
-  }
-}
-
 void CheckFrame(const Frame& frame) {
   std::ostringstream msg;
   msg << "frame " << frame.index << ": ";
@@ -149,7 +142,7 @@ TrackedFrame Frontend::Process(const Frame& frame) {
     if (s.has_reference && PropagatesDepthScale()) {
       const double scale = DepthScaleFromReference(
           depth, world_from_cam.Inverse() * s.world_from_ref, features.levels[0].camera);
-      if (scale > 0.0) ScaleDepth(&depth, scale);
+      if (scale > 0.0) depth.Scale(scale);
     }
     const int points = tracker_.SetReference(features, depth);
     if (points < min_points) {
@@ -284,7 +277,7 @@ bool Frontend::MakeLastFrameReference(KeyframeData* keyframe) {
       const double scale =
           DepthScaleFromReference(s.last_depth, last.world_from_cam.Inverse() * s.world_from_ref,
                                   s.last_features.levels[0].camera);
-      if (scale > 0.0) ScaleDepth(&s.last_depth, scale);
+      if (scale > 0.0) s.last_depth.Scale(scale);
     }
     const int points = tracker_.SetReference(s.last_features, s.last_depth);
     if (points < MinReferencePoints()) {

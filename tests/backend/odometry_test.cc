@@ -152,7 +152,7 @@ class RandomScaleDepthSource : public DepthSource {
     DepthPyramid d = truth_.Compute(frame, num_levels);
     std::mt19937 rng(1000 + frame.index);
     std::normal_distribution<double> normal(0.0, 0.2);
-    ScaleDepthPyramid(&d, std::exp(normal(rng)));
+    d.Scale(std::exp(normal(rng)));
     return d;
   }
 
