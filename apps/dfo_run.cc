@@ -154,8 +154,8 @@ void PrintComparison(const apps::SequenceRunResult& result, const apps::RunOutpu
     std::cout << "tracking:    " << window << " of " << tracked
               << " tracked frames against the window's depths";
     if (!t["median_covered_fraction"].IsNull()) {
-      std::cout << " (a window point under " << apps::FormatFixed(
-                       100.0 * t["median_covered_fraction"].AsNumber(), 0)
+      std::cout << " (a window point under "
+                << apps::FormatFixed(100.0 * t["median_covered_fraction"].AsNumber(), 0)
                 << " % of the tracker's points, median)";
     }
     std::cout << "; the rest against the depth source's (tracker.depth = window)\n";
@@ -256,13 +256,8 @@ int Run(const Args& args) {
   frontend_options.reference.policy = apps::ReferencePolicyFromConfig(config);
   const OdometryOptions odometry_options = apps::OdometryOptionsFromConfig(config);
   const apps::RunMode mode = odometry_options.mode;
-  if (mode != apps::RunMode::kFrontend &&
-      odometry_options.window.pyramid_level >= frontend_options.tracker.num_levels) {
-    throw ConfigError("window.pyramid_level = " +
-                      std::to_string(odometry_options.window.pyramid_level) +
-                      " violates < tracker.num_levels (" +
-                      std::to_string(frontend_options.tracker.num_levels) + ")");
-  }
+  // Before anything is loaded or written (the Odometry constructor checks it again).
+  odometry_options.CheckAgainst(frontend_options.tracker);
   io::DatasetOptions dataset = io::DatasetOptionsFromConfig(config);
   if (dataset.path.empty()) {
     throw ConfigError(
@@ -335,11 +330,9 @@ int Run(const Args& args) {
   run_options.progress_stream = stdout;
   run_options.log_stream = stderr;
   if (streamer) {
-    run_options.frame_observer = [&](const apps::FrameRecord& frame,
-                                     const apps::SequenceRunResult& so_far,
-                                     const Odometry& system) {
-      streamer->OnFrame(frame, so_far, system.poses());
-    };
+    run_options.frame_observer =
+        [&](const apps::FrameRecord& frame, const apps::SequenceRunResult& so_far,
+            const Odometry& system) { streamer->OnFrame(frame, so_far, system.poses()); };
     run_options.solve_observer = [&](const KeyframeRecord& keyframe,
                                      const apps::SequenceRunResult& so_far,
                                      const Odometry& system) {

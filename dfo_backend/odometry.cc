@@ -48,6 +48,28 @@ void OdometryOptions::Check() const {
   if (has_window()) window.Check();
 }
 
+void OdometryOptions::CheckAgainst(const TrackerOptions& tracker) const {
+  if (!has_window()) return;
+  const int levels = tracker.num_levels;
+  if (window.pyramid_level >= levels) {
+    throw ConfigError("window.pyramid_level = " + std::to_string(window.pyramid_level) +
+                      " violates < tracker.num_levels (" + std::to_string(levels) + ")");
+  }
+  if (window.coarse_iterations > 0 && window.pyramid_level + 1 >= levels) {
+    throw ConfigError("window.coarse_iterations = " + std::to_string(window.coarse_iterations) +
+                      " needs window.pyramid_level + 1 < tracker.num_levels (" +
+                      std::to_string(levels) +
+                      "); set window.coarse_iterations=0 or use more tracker levels");
+  }
+}
+
+int FindKeyframeRecord(const std::vector<KeyframeRecord>& records, int frame_index) {
+  for (int i = static_cast<int>(records.size()) - 1; i >= 0; --i) {
+    if (records[i].frame_index == frame_index) return i;
+  }
+  return -1;
+}
+
 Odometry::Odometry(const FrontendOptions& frontend_options, const OdometryOptions& options,
                    std::unique_ptr<FeatureSource> features, std::unique_ptr<DepthSource> depth)
     : options_((options.Check(), options)),
@@ -55,20 +77,8 @@ Odometry::Odometry(const FrontendOptions& frontend_options, const OdometryOption
           std::make_unique<Frontend>(frontend_options, std::move(features), std::move(depth))),
       manager_(options.keyframe),
       external_(frontend_options.reference.policy == "external") {
-  if (options_.has_window()) {
-    const int levels = frontend_options.tracker.num_levels;
-    if (options_.window.pyramid_level >= levels) {
-      throw ConfigError("window.pyramid_level = " + std::to_string(options_.window.pyramid_level) +
-                        " violates < tracker.num_levels (" + std::to_string(levels) + ")");
-    }
-    if (options_.window.coarse_iterations > 0 && options_.window.pyramid_level + 1 >= levels) {
-      throw ConfigError(
-          "window.coarse_iterations = " + std::to_string(options_.window.coarse_iterations) +
-          " needs window.pyramid_level + 1 < tracker.num_levels (" + std::to_string(levels) +
-          "); set window.coarse_iterations=0 or use more tracker levels");
-    }
-    window_ = std::make_unique<WindowOptimizer>(options_.window);
-  }
+  options_.CheckAgainst(frontend_options.tracker);
+  if (options_.has_window()) window_ = std::make_unique<WindowOptimizer>(options_.window);
 }
 
 Odometry::~Odometry() {
@@ -208,11 +218,9 @@ int Odometry::ApplyPendingSolve(bool wait) {
     return -1;
   }
   const std::unique_ptr<PendingSolve> pending = std::move(pending_);
-  KeyframeRecord* kf = nullptr;
-  for (auto it = keyframes_.rbegin(); it != keyframes_.rend() && kf == nullptr; ++it) {
-    if (it->frame_index == pending->frame_index) kf = &*it;
-  }
-  DFO_CHECK(kf != nullptr) << "no keyframe record for frame " << pending->frame_index;
+  const int position = FindKeyframeRecord(keyframes_, pending->frame_index);
+  DFO_CHECK(position >= 0) << "no keyframe record for frame " << pending->frame_index;
+  KeyframeRecord* kf = &keyframes_[position];
   kf->window = pending->result.get();  // rethrows what AddKeyframe threw
   kf->ba_ran = true;
   kf->backend_ms = MsSince(pending->start);

@@ -83,6 +83,10 @@ struct OdometryOptions {
   // Throws ConfigError naming the key (the nested options' Check; the window's only when a
   // window runs).
   void Check() const;
+  // The rules between these options and the tracker's (window.pyramid_level below
+  // tracker.num_levels, one more level for window.coarse_iterations) when a window runs; throws
+  // ConfigError naming both keys. The Odometry constructor calls it.
+  void CheckAgainst(const TrackerOptions& tracker) const;
   bool has_window() const { return mode != OdometryMode::kFrontend; }
 };
 
@@ -105,6 +109,10 @@ struct KeyframeRecord {
   double window_scale = 0.0;
   double initial_depth_scale = 1.0;
 };
+
+// Position in `records` of the record of keyframe `frame_index`, searched from the newest;
+// -1 when there is none.
+int FindKeyframeRecord(const std::vector<KeyframeRecord>& records, int frame_index);
 
 // One processed frame.
 struct OdometryFrame {

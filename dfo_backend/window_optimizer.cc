@@ -201,13 +201,6 @@ std::vector<int> WindowOptimizer::PriorFrameIndices() const {
   return out;
 }
 
-std::vector<std::pair<int, double>> WindowOptimizer::PointInverseDepths() const {
-  std::vector<std::pair<int, double>> out;
-  for (const auto& p : points_)
-    out.emplace_back(FindKeyframe(p->host_id)->frame_index, p->inverse_depth);
-  return out;
-}
-
 std::vector<WindowOptimizer::PointInfo> WindowOptimizer::Points() const {
   std::vector<PointInfo> out;
   for (const auto& p : points_) {

@@ -217,9 +217,8 @@ class WindowOptimizer {
   // in the prior's block order.
   const LinearPriorCost* prior() const;
   std::vector<int> PriorFrameIndices() const;
-  // Inverse depth and host frame index of every live point (for tests and diagnostics).
-  std::vector<std::pair<int, double>> PointInverseDepths() const;
-  // Every live point: host frame index, pixel at the BA level and inverse depth (diagnostics).
+  // Every live point: host frame index, pixel at the BA level and inverse depth (for tests and
+  // diagnostics).
   struct PointInfo {
     int host_frame = 0;
     int x = 0, y = 0;

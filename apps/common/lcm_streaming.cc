@@ -113,11 +113,9 @@ void LcmRunStreamer::OnFrame(const FrameRecord& frame, const SequenceRunResult& 
 
 void LcmRunStreamer::PublishKeyframeBatch(int keyframe_index, const SequenceRunResult& result,
                                           const TrajectoryStore& store) {
-  const KeyframeRecord* kf = nullptr;
-  for (auto it = result.keyframes.rbegin(); it != result.keyframes.rend() && kf == nullptr; ++it) {
-    if (it->frame_index == keyframe_index) kf = &*it;
-  }
-  if (kf == nullptr || !kf->ba_ran) return;
+  const int position = FindKeyframeRecord(result.keyframes, keyframe_index);
+  if (position < 0 || !result.keyframes[position].ba_ran) return;
+  const KeyframeRecord* kf = &result.keyframes[position];
   // The store's windowed poses of the window's keyframes: the solve's result when it was kept,
   // the previous ones when not.
   const auto stamp = timestamps_ns_.find(kf->frame_index);
@@ -128,9 +126,9 @@ void LcmRunStreamer::PublishKeyframeBatch(int keyframe_index, const SequenceRunR
   const auto add = [&](int index, bool in_window) {
     if (!store.IsKeyframe(index)) return;
     const auto found = timestamps_ns_.find(index);
-    batch.keyframes.push_back(io::MakeKeyframePose(
-        index, found != timestamps_ns_.end() ? found->second : 0, store.WindowedPose(index),
-        in_window));
+    batch.keyframes.push_back(
+        io::MakeKeyframePose(index, found != timestamps_ns_.end() ? found->second : 0,
+                             store.WindowedPose(index), in_window));
   };
   for (const auto& [index, pose] : kf->window.keyframe_poses) add(index, true);
   if (kf->window.marginalized_frame_index >= 0) add(kf->window.marginalized_frame_index, false);

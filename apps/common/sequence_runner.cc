@@ -71,21 +71,11 @@ namespace {
 // that was not kept.
 void RefreshKeyframe(const Odometry& odometry, int frame_index, const SequenceRunOptions& options,
                      SequenceRunResult* result) {
-  const KeyframeRecord* source = nullptr;
-  for (auto it = odometry.keyframes().rbegin(); it != odometry.keyframes().rend(); ++it) {
-    if (it->frame_index == frame_index) {
-      source = &*it;
-      break;
-    }
-  }
-  if (source == nullptr) return;
-  for (auto it = result->keyframes.rbegin(); it != result->keyframes.rend(); ++it) {
-    if (it->frame_index == frame_index) {
-      *it = *source;
-      break;
-    }
-  }
-  const KeyframeRecord& kf = *source;
+  const int source = FindKeyframeRecord(odometry.keyframes(), frame_index);
+  if (source < 0) return;
+  const KeyframeRecord& kf = odometry.keyframes()[source];
+  const int target = FindKeyframeRecord(result->keyframes, frame_index);
+  if (target >= 0) result->keyframes[target] = kf;
   if (kf.ba_ran && !kf.window.optimized && kf.window.keyframe_poses.size() >= 2 &&
       options.log_stream != nullptr) {
     std::fprintf(options.log_stream,
@@ -141,7 +131,8 @@ SequenceRunResult RunSequence(const FrameProvider& provider, Odometry* odometry,
         result.keyframes.push_back(kf);
         if (odometry->has_window()) record.keyframe_depth_scale = kf.window_scale;
       }
-      if (out.solved_keyframe >= 0) RefreshKeyframe(*odometry, out.solved_keyframe, options, &result);
+      if (out.solved_keyframe >= 0)
+        RefreshKeyframe(*odometry, out.solved_keyframe, options, &result);
       record.total_ms = MillisecondsSince(frame_start);
       result.frames.push_back(std::move(record));
       if (options.frame_observer) options.frame_observer(result.frames.back(), result, *odometry);
@@ -156,10 +147,9 @@ SequenceRunResult RunSequence(const FrameProvider& provider, Odometry* odometry,
     const int solved = odometry->Flush();
     if (solved >= 0) {
       RefreshKeyframe(*odometry, solved, options, &result);
-      if (options.solve_observer) {
-        for (const KeyframeRecord& kf : result.keyframes) {
-          if (kf.frame_index == solved) options.solve_observer(kf, result, *odometry);
-        }
+      const int position = FindKeyframeRecord(result.keyframes, solved);
+      if (options.solve_observer && position >= 0) {
+        options.solve_observer(result.keyframes[position], result, *odometry);
       }
     }
   } catch (const std::exception& e) {

@@ -310,7 +310,9 @@ TEST(WindowOptimizerTest, KeyframeWithNonFiniteFeaturesIsRejectedAndSaysWhy) {
   const WindowResult good = window.AddKeyframe(test::MakeSyntheticKeyframe(Sequence(), 6, 2));
   EXPECT_TRUE(good.optimized) << good.message;
   EXPECT_EQ(window.num_keyframes(), 3);
-  for (const auto& [host, rho] : window.PointInverseDepths()) EXPECT_TRUE(std::isfinite(rho));
+  for (const WindowOptimizer::PointInfo& p : window.Points()) {
+    EXPECT_TRUE(std::isfinite(p.inverse_depth));
+  }
 }
 
 TEST(WindowOptimizerTest, NaNAndZeroDepthHostNoPointsButDoNotFail) {
@@ -325,9 +327,9 @@ TEST(WindowOptimizerTest, NaNAndZeroDepthHostNoPointsButDoNotFail) {
   }
   const WindowResult result = window.AddKeyframe(std::move(kf));
   EXPECT_TRUE(result.optimized) << result.message;
-  for (const auto& [host, rho] : window.PointInverseDepths()) {
-    EXPECT_EQ(host, 0);  // nothing hosted in the keyframe without depth
-    EXPECT_TRUE(std::isfinite(rho));
+  for (const WindowOptimizer::PointInfo& p : window.Points()) {
+    EXPECT_EQ(p.host_frame, 0);  // nothing hosted in the keyframe without depth
+    EXPECT_TRUE(std::isfinite(p.inverse_depth));
   }
   EXPECT_LE(window.num_points(), points_before);
   EXPECT_GT(window.num_residual_blocks(), 0);
@@ -443,9 +445,10 @@ TEST(WindowOptimizerTest, DepthSearchCorrectsAWrongSourceDepthByParallax) {
       EXPECT_EQ(r.num_depth_searched, 0);
     }
   }
-  std::printf("[ figures  ] depth 1.6x too far: median |log depth error| of the points seen from "
-              "the new keyframe %.3f without the depth search, %.3f with it (%d points moved)\n",
-              err[0], err[1], moved);
+  std::printf(
+      "[ figures  ] depth 1.6x too far: median |log depth error| of the points seen from "
+      "the new keyframe %.3f without the depth search, %.3f with it (%d points moved)\n",
+      err[0], err[1], moved);
   EXPECT_LT(err[1], 0.5 * err[0]);
   EXPECT_LT(err[1], 0.1);
 }
