@@ -396,6 +396,7 @@ int RunDepth(int argc, char** argv) {
     out.Set("num_pixels", static_cast<int64_t>(mean.num_pixels));
     out.Set("median_scaling", metrics.median_scaling);
     out.Set("median_scale_mean", metrics.median_scaling ? mean.median_scale : 1.0);
+    if (metrics.median_scaling) out.Set("median_scale_cv", mean.median_scale_cv);
     out.Set("abs_rel", mean.abs_rel);
     out.Set("sq_rel", mean.sq_rel);
     out.Set("rmse", mean.rmse);
@@ -411,7 +412,9 @@ int RunDepth(int argc, char** argv) {
   std::cout << " (" << mean.num_pixels << " pixels, depth in (" << metrics.min_depth << ", "
             << metrics.max_depth << ") m)\n";
   if (metrics.median_scaling) {
-    std::cout << "median scaling: mean ratio " << Fixed(mean.median_scale, 4) << "\n";
+    std::cout << "median scaling: mean ratio " << Fixed(mean.median_scale, 4)
+              << ", coefficient of variation over the images " << Fixed(mean.median_scale_cv, 4)
+              << "\n";
   }
   std::cout << "   abs_rel    sq_rel      rmse  rmse_log        a1        a2        a3\n";
   char buf[160];

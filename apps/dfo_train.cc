@@ -11,6 +11,7 @@
 #include <cstdio>
 #include <filesystem>
 #include <iostream>
+#include <optional>
 #include <sstream>
 #include <string>
 #include <vector>
@@ -32,6 +33,7 @@ constexpr const char* kUsage =
     R"(usage: dfo_train --config FILE.yaml [--set section.key=value ...] --output DIR [--resume]
        dfo_train --config FILE.yaml --output DIR --export [--model FILE]
        dfo_train --config FILE.yaml --output DIR --write-depth OUT_DIR --sequence SEQ_DIR
+                 [--model FILE]
 
 Trains the depth and feature networks self-supervised (3-frame snippets, poses from the
 differentiable feature-metric Gauss-Newton, clamped DSSIM + L1 appearance loss, edge-aware
@@ -51,9 +53,10 @@ options:
                        stopped run is never overwritten by accident)
   --export             write the model file from DIR/checkpoint.pt without training
   --model FILE         model file name for --export and the end of training (default
-                       DIR/model.dfo)
-  --write-depth OUT    predict the depth of every frame of --sequence with DIR/checkpoint.pt and
-                       write 16-bit PNGs (metres * 256, the sequence's native size, image file
+                       DIR/model.dfo); with --write-depth, the model file to predict with
+                       (its network shapes and input size; no checkpoint needed)
+  --write-depth OUT    predict the depth of every frame of --sequence with DIR/checkpoint.pt (or
+                       --model FILE) and write 16-bit PNGs (metres * 256, the sequence's native size, image file
                        names) into OUT, for `dfo_eval depth --gt SEQ/depth_0 --pred OUT`
   --sequence SEQ_DIR   KITTI-layout sequence folder for --write-depth, or a TUM RGB-D folder
                        (rgb.txt, depth.txt: predictions named as the associated depth maps, for
@@ -148,6 +151,7 @@ learned::TrainingOptions OptionsFromConfig(const io::Config& c) {
                            ? learned::LossOptions::DepthGauge::kGeometricMean
                            : learned::LossOptions::DepthGauge::kMedian;
   o.loss.full_resolution = c.GetBool("loss.full_resolution");
+  o.loss.depth_consistency_weight = c.GetDouble("loss.depth_consistency_weight");
   o.augment.enabled = c.GetBool("augment.enabled");
   o.augment.max_scale = c.GetDouble("augment.max_scale");
   o.augment.color_probability = c.GetDouble("augment.color_probability");
@@ -279,7 +283,8 @@ void WriteCurves(const std::string& dir, const std::vector<learned::StepRecord>&
   learned::WriteHistoryCsv(dir + "/losses.csv", history);
   if (history.empty()) return;
   io::CurveSeries total{"total", {}, {}}, ap{"appearance", {}, {}},
-      sm{"smoothness x lambda", {}, {}}, ae{"reconstruction", {}, {}};
+      sm{"smoothness x lambda", {}, {}}, ae{"reconstruction", {}, {}},
+      gc{"geometry consistency", {}, {}};
   for (const learned::StepRecord& r : history) {
     total.x.push_back(r.iteration);
     total.y.push_back(r.total);
@@ -288,6 +293,10 @@ void WriteCurves(const std::string& dir, const std::vector<learned::StepRecord>&
       ap.y.push_back(r.appearance);
       sm.x.push_back(r.iteration);
       sm.y.push_back(r.smoothness * 0.1);
+      if (r.consistency > 0.0) {
+        gc.x.push_back(r.iteration);
+        gc.y.push_back(r.consistency);
+      }
     }
     ae.x.push_back(r.iteration);
     ae.y.push_back(r.reconstruction);
@@ -301,6 +310,7 @@ void WriteCurves(const std::string& dir, const std::vector<learned::StepRecord>&
     series.push_back(ap);
     series.push_back(sm);
   }
+  if (!gc.x.empty()) series.push_back(gc);
   io::WriteCurvePlot(dir + "/losses.png", series, plot);
 }
 
@@ -316,7 +326,7 @@ std::string Notes(const Args& args, const learned::Trainer& trainer) {
 // the training width with the images' aspect ratio, named as the associated depth maps (frames
 // without one are skipped), so that `dfo_eval depth --gt FOLDER/depth --gt-scale 5000` pairs
 // them.
-void WriteDepth(learned::Trainer& trainer, const Args& args) {
+void WriteDepth(learned::Trainer& trainer, const Args& args, const std::string& source) {
   const learned::TrainingOptions& o = trainer.options();
   const bool tum = IsTumFolder(args.sequence_dir);
   const io::Sequence seq =
@@ -349,7 +359,7 @@ void WriteDepth(learned::Trainer& trainer, const Args& args) {
   }
   std::cout << "dfo_train: wrote " << written << " depth maps to " << args.write_depth_dir
             << " (mean of the per-image median depths " << sum_median / std::max<size_t>(written, 1)
-            << " m, model iteration " << trainer.iteration() << ")\n";
+            << " m, " << source << ")\n";
 }
 
 int Run(const Args& args) {
@@ -359,7 +369,7 @@ int Run(const Args& args) {
     return 0;
   }
   if (args.output_dir.empty()) throw UsageError("--output DIR is required");
-  const learned::TrainingOptions options = OptionsFromConfig(config);
+  const learned::TrainingOptions base_options = OptionsFromConfig(config);
   const std::string dir = args.output_dir;
   const std::string checkpoint = dir + "/checkpoint.pt";
   const std::string model_path = args.model_path.empty() ? dir + "/model.dfo" : args.model_path;
@@ -368,8 +378,25 @@ int Run(const Args& args) {
   if (!args.write_depth_dir.empty() && args.sequence_dir.empty()) {
     throw UsageError("--write-depth needs --sequence SEQ_DIR");
   }
-  if (inference_only && !have_checkpoint) {
-    throw InputError("no checkpoint " + checkpoint + " to export or predict with");
+  // --write-depth --model FILE: the networks (shapes, input size, weights) of a model file.
+  const bool from_model = !args.write_depth_dir.empty() && !args.model_path.empty();
+  std::optional<learned::LoadedModel> model;
+  learned::TrainingOptions options = base_options;
+  if (from_model) {
+    model = learned::LoadModel(args.model_path);
+    if (model->kind != learned::LoadedModel::Kind::kDfo) {
+      throw InputError("model " + args.model_path +
+                       ": a TorchScript model; --write-depth predicts with dfo model files only "
+                       "(dfo_run runs TorchScript models)");
+    }
+    options.network = model->options;
+    options.gn.num_levels = model->options.num_levels;
+    options.gn.patch_size = model->options.patch_sizes[0];
+  }
+  if (inference_only && !from_model && !have_checkpoint) {
+    throw InputError("no checkpoint " + checkpoint +
+                     " to export or predict with (--write-depth "
+                     "also takes --model FILE)");
   }
   if (!inference_only && have_checkpoint && !args.resume) {
     throw UsageError(checkpoint +
@@ -399,8 +426,28 @@ int Run(const Args& args) {
     effective.static_threshold = 0.0;
     effective.pose_source = learned::TrainingOptions::PoseSource::kAlignment;  // no poses needed
   }
+  // Per sequence: its name and the snippets it could give (frames - 2), for the static count.
+  std::vector<std::pair<std::string, int>> candidates;
+  for (const learned::TrainingSequence& t : data) {
+    candidates.emplace_back(t.name, std::max(0, static_cast<int>(t.images.size()) - 2));
+  }
   learned::Trainer trainer(effective, std::move(data));
-  if (have_checkpoint) {
+  if (!inference_only) {
+    std::vector<int> kept(candidates.size(), 0);
+    for (const learned::Snippet& sn : trainer.snippets()) ++kept[sn.sequence];
+    for (size_t s = 0; s < candidates.size(); ++s) {
+      std::cout << "dfo_train: " << candidates[s].first << ": " << kept[s] << " snippets, "
+                << candidates[s].second - kept[s] << " dropped as static (mean grey change < "
+                << effective.static_threshold << ")\n";
+    }
+  }
+  if (from_model) {
+    torch::NoGradGuard no_grad;
+    const auto source = model->networks->named_parameters();
+    for (auto& p : trainer.networks()->named_parameters()) p.value().copy_(source[p.key()]);
+    const auto buffers = model->networks->named_buffers();
+    for (auto& b : trainer.networks()->named_buffers()) b.value().copy_(buffers[b.key()]);
+  } else if (have_checkpoint) {
     trainer.LoadCheckpoint(checkpoint);
   } else if (!config.GetString("train.init_checkpoint").empty()) {
     trainer.LoadWeights(config.GetString("train.init_checkpoint"));
@@ -414,7 +461,9 @@ int Run(const Args& args) {
     return 0;
   }
   if (!args.write_depth_dir.empty()) {
-    WriteDepth(trainer, args);
+    WriteDepth(trainer, args,
+               from_model ? "model " + args.model_path
+                          : "checkpoint iteration " + std::to_string(trainer.iteration()));
     return 0;
   }
 
@@ -448,14 +497,17 @@ int Run(const Args& args) {
       std::snprintf(pose_error, sizeof(pose_error), " (vs truth: rot %.2f deg, dir %.0f deg)",
                     r.pose_rotation_error_deg, r.pose_direction_error_deg);
     }
-    char buf[400];
+    char consistency[48] = "";
+    if (r.consistency > 0.0)
+      std::snprintf(consistency, sizeof(consistency), " gc %.4f", r.consistency);
+    char buf[460];
     std::snprintf(
         buf, sizeof(buf),
-        "dfo_train: it %d/%d (%.1f%%) %s  loss %.4f (ap %.4f sm %.4f sp %.4f ae %.4f)  "
+        "dfo_train: it %d/%d (%.1f%%) %s  loss %.4f (ap %.4f sm %.4f sp %.4f ae %.4f%s)  "
         "gn ok %.0f%%%s  median depth %.1f m  %.2f it/s  ETA %s",
         r.iteration, options.iterations, 100.0 * r.iteration / options.iterations, r.stage.c_str(),
-        r.total, r.appearance, r.smoothness, r.sparsity, r.reconstruction, 100.0 * r.gn_ok_ratio,
-        pose_error, r.mean_depth, rate,
+        r.total, r.appearance, r.smoothness, r.sparsity, r.reconstruction, consistency,
+        100.0 * r.gn_ok_ratio, pose_error, r.mean_depth, rate,
         FormatDuration((options.iterations - r.iteration) / std::max(rate, 1e-9)).c_str());
     return std::string(buf);
   };

@@ -121,7 +121,7 @@ DepthErrors AverageDepthErrors(const std::vector<DepthErrors>& per_image) {
   mean.num_images = count;
   if (count == 0) {
     mean.abs_rel = mean.sq_rel = mean.rmse = mean.rmse_log = mean.a1 = mean.a2 = mean.a3 = kNaN;
-    mean.median_scale = kNaN;
+    mean.median_scale = mean.median_scale_cv = kNaN;
     return mean;
   }
   const double c = static_cast<double>(count);
@@ -133,6 +133,12 @@ DepthErrors AverageDepthErrors(const std::vector<DepthErrors>& per_image) {
   mean.a2 /= c;
   mean.a3 /= c;
   mean.median_scale /= c;
+  double variance = 0.0;
+  for (const DepthErrors& e : per_image) {
+    if (e.num_images == 0) continue;
+    variance += (e.median_scale - mean.median_scale) * (e.median_scale - mean.median_scale) / c;
+  }
+  mean.median_scale_cv = std::sqrt(variance) / mean.median_scale;
   return mean;
 }
 

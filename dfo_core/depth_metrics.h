@@ -38,6 +38,9 @@ struct DepthErrors {
   size_t num_pixels = 0;      // valid pixels used (summed over images for an average)
   size_t num_images = 0;      // 1 for one image with valid pixels, 0 for none; images averaged
   double median_scale = 1.0;  // the median-scaling ratio used (mean over images for an average)
+  // For an average only: population standard deviation over mean of the per-image median-scaling
+  // ratios (how much the prediction's own scale varies from image to image; 0 for one image).
+  double median_scale_cv = 0.0;
 };
 
 // Errors of one predicted depth map against its ground truth (both single-channel, metres, same

@@ -75,6 +75,11 @@ ConfigSchema BuildTrainSchema() {
   s.AddBool("loss.full_resolution", true,
             "Monodepth2's full-resolution loss: every level's depth upsampled to the finest "
             "level, view synthesis there (false: each level at its own size)");
+  s.AddDouble("loss.depth_consistency_weight", 0.0,
+              "Geometry consistency (SC-SfMLearner): the target's depth moved into each source "
+              "against the source's own depth, |z - d| / (z + d); ties consecutive frames' scale "
+              "together (0 = off)")
+      .Min(0);
 
   s.AddSection("augment", "Augmentation, identical for the three frames of a snippet.");
   s.AddBool("augment.enabled", true, "Augment the training snippets");

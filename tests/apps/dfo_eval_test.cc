@@ -200,6 +200,8 @@ TEST(DfoEval, DepthKnownValuesAndPairingErrors) {
   r = RunEval("depth --gt " + dir + "/gt --pred " + dir + "/pred --median-scaling --json");
   ASSERT_EQ(r.status, 0) << r.err;
   EXPECT_NEAR(io::ParseJson(r.out)["abs_rel"].AsNumber(), 0.0, 1e-6);
+  // Per-image ratios 1 / 1.2 and 1: mean 11 / 12, population deviation 1 / 12.
+  EXPECT_NEAR(io::ParseJson(r.out)["median_scale_cv"].AsNumber(), 1.0 / 11.0, 1e-3);
 
   std::filesystem::remove(dir + "/pred/b.png");
   ExpectCleanFailure(RunEval("depth --gt " + dir + "/gt --pred " + dir + "/pred"),

@@ -39,6 +39,13 @@ CommandResult Shell(const std::string& command) {
   return result;
 }
 
+std::string ReadBytes(const std::string& path) {
+  std::ifstream in(path, std::ios::binary);
+  std::stringstream ss;
+  ss << in.rdbuf();
+  return ss.str();
+}
+
 std::vector<std::string> ReadLines(const std::string& path) {
   std::ifstream in(path);
   std::vector<std::string> lines;
@@ -124,8 +131,8 @@ TEST_F(DfoTrainAppTest, SigtermLeavesACheckpointAndResumeContinuesTheCurve) {
   // as the associated depth maps, so that dfo_eval pairs every ground-truth map.
   if (!test::SharedDataDir().empty()) {
     const std::string tum = test::SharedDataDir() + "/tum/fr3_cabinet_keyframes";
-    const CommandResult written = Shell(Train("--output " + out + "/run --write-depth " + out +
-                                              "/tum_depth --sequence " + tum));
+    const CommandResult written = Shell(
+        Train("--output " + out + "/run --write-depth " + out + "/tum_depth --sequence " + tum));
     ASSERT_EQ(written.status, 0) << written.out;
     EXPECT_NE(written.out.find("wrote 58 depth maps"), std::string::npos) << written.out;
     const CommandResult tum_eval =
@@ -139,6 +146,30 @@ TEST_F(DfoTrainAppTest, SigtermLeavesACheckpointAndResumeContinuesTheCurve) {
       Shell(Train("--output " + out + "/run --export --model " + out + "/exported.dfo"));
   ASSERT_EQ(exported.status, 0) << exported.out;
   EXPECT_TRUE(fs::exists(out + "/exported.dfo"));
+  // Depth from the model file alone: no checkpoint in the output folder, and a configuration of
+  // other network shapes (the default's), so shapes and input size must come from the file. The
+  // maps equal those of the checkpoint it was exported from.
+  const CommandResult from_model =
+      Shell(std::string(DFO_TRAIN_EXE) + " --config " + test::SourceDir() +
+            "/configs/train_default.yaml --output " + out + "/no_checkpoint --write-depth " + out +
+            "/model_depth --sequence " + *data_ + "/sequences/00 --model " + out + "/exported.dfo");
+  ASSERT_EQ(from_model.status, 0) << from_model.out;
+  EXPECT_NE(from_model.out.find("model " + out + "/exported.dfo"), std::string::npos)
+      << from_model.out;
+  EXPECT_FALSE(fs::exists(out + "/no_checkpoint/checkpoint.pt"));
+  int compared = 0;
+  for (const auto& entry : fs::directory_iterator(out + "/depth")) {
+    const std::string name = entry.path().filename().string();
+    EXPECT_EQ(ReadBytes(entry.path().string()), ReadBytes(out + "/model_depth/" + name)) << name;
+    ++compared;
+  }
+  EXPECT_GT(compared, 0);
+  // A model file that is not one is named.
+  const CommandResult bad_model = Shell(Train("--output " + out + "/no_checkpoint --write-depth " +
+                                              out + "/bad_depth --sequence " + *data_ +
+                                              "/sequences/00 --model " + out + "/run/losses.csv"));
+  EXPECT_EQ(bad_model.status, 1) << bad_model.out;
+  EXPECT_NE(bad_model.out.find(out + "/run/losses.csv"), std::string::npos) << bad_model.out;
 }
 
 TEST_F(DfoTrainAppTest, CommandLineMistakesAreNamed) {

@@ -87,6 +87,23 @@ TEST(DepthMetrics, AverageIsOverImagesNotPixels) {
   EXPECT_TRUE(std::isnan(AverageDepthErrors({}).abs_rel));
 }
 
+TEST(DepthMetrics, MedianScaleCvIsTheSpreadOfThePerImageRatios) {
+  // Three images whose predictions are 1/2, 1/4 and 1/6 of the truth: ratios 2, 4, 6, mean 4,
+  // population standard deviation sqrt(8 / 3).
+  ImageF gt(3, 1, 1, 12.0f);
+  DepthMetricsOptions options;
+  options.median_scaling = true;
+  std::vector<DepthErrors> per_image;
+  for (float ratio : {2.0f, 4.0f, 6.0f}) {
+    per_image.push_back(ComputeDepthErrors(gt, ImageF(3, 1, 1, 12.0f / ratio), options));
+  }
+  const DepthErrors mean = AverageDepthErrors(per_image);
+  EXPECT_NEAR(mean.median_scale, 4.0, 1e-6);
+  EXPECT_NEAR(mean.median_scale_cv, std::sqrt(8.0 / 3.0) / 4.0, 1e-6);
+  // One image has no spread.
+  EXPECT_EQ(AverageDepthErrors({per_image[0]}).median_scale_cv, 0.0);
+}
+
 TEST(DepthMetrics, SizeMismatchAndBadOptionsThrow) {
   EXPECT_THROW(ComputeDepthErrors(ImageF(4, 4), ImageF(4, 5)), InputError);
   EXPECT_THROW(ComputeDepthErrors(ImageF(4, 4, 2), ImageF(4, 4, 2)), InputError);

@@ -1,6 +1,7 @@
 // Training losses on known inputs: zero appearance loss for identical images, the robust clamp's
 // kink, the smoothness term of a known disparity ramp, KL sparsity at and away from rho, the
-// reconstruction loss, and the inverse warp with identity and a pure translation.
+// reconstruction loss, the inverse warp with identity and a pure translation, and the geometry
+// consistency of a plane seen from two depths.
 #include "dfo_frontend/learned/internal/losses.h"
 
 #include <gtest/gtest.h>
@@ -121,6 +122,35 @@ TEST(LossesTest, InverseWarpIdentityReturnsTheSourceAndTranslationShiftsIt) {
   EXPECT_NEAR((shifted.slice(3, 0, w - 2) - source.slice(3, 2, w)).abs().max().item<double>(), 0.0,
               1e-4);
   EXPECT_EQ(valid.sum().item<double>(), static_cast<double>(h * (w - 2)));
+}
+
+TEST(LossesTest, DepthConsistencyIsZeroForAConsistentSceneAndMeasuresAScaleError) {
+  // A fronto-parallel plane at 10 m seen from a source 1 m further back: the target's points lie
+  // at 11 m in the source, so a source depth map of 11 m is consistent (loss 0) and one of
+  // 13.2 m (1.2x) gives |11 - 13.2| / (11 + 13.2) on every pixel.
+  const int64_t h = 12, w = 20;
+  const torch::Tensor k = torch::tensor({{50.0, 50.0, 9.5, 5.5}});
+  const torch::Tensor r = torch::eye(3).unsqueeze(0);
+  const torch::Tensor t = torch::tensor({{0.0, 0.0, 1.0}});
+  const torch::Tensor target = torch::full({1, 1, h, w}, 10.0);
+  const torch::Tensor ok = torch::ones({1});
+  EXPECT_NEAR(
+      DepthConsistencyLoss(target, torch::full({1, 1, h, w}, 11.0), r, t, k, ok).item<double>(),
+      0.0, 1e-6);
+  EXPECT_NEAR(
+      DepthConsistencyLoss(target, torch::full({1, 1, h, w}, 13.2), r, t, k, ok).item<double>(),
+      2.2 / 24.2, 1e-5);
+  // A left-out sample (failed alignment) contributes nothing; none left gives 0.
+  EXPECT_EQ(
+      DepthConsistencyLoss(target, torch::full({1, 1, h, w}, 13.2), r, t, k, torch::zeros({1}))
+          .item<double>(),
+      0.0);
+  // The gradient pulls the two depths together: the source's depth down, the target's up.
+  const torch::Tensor target_var = target.clone().requires_grad_(true);
+  const torch::Tensor source_var = torch::full({1, 1, h, w}, 13.2).requires_grad_(true);
+  DepthConsistencyLoss(target_var, source_var, r, t, k, ok).backward();
+  EXPECT_GT(source_var.grad().sum().item<double>(), 0.0);
+  EXPECT_LT(target_var.grad().sum().item<double>(), 0.0);
 }
 
 TEST(LossesTest, OptionsCheckNamesTheField) {

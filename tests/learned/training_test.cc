@@ -11,8 +11,8 @@
 
 #include "dfo_core/error.h"
 #include "dfo_core/frame.h"
-#include "dfo_frontend/feature_source.h"
 #include "dfo_core/synthetic/synthetic_sequence.h"
+#include "dfo_frontend/feature_source.h"
 #include "tests/support/test_support.h"
 
 namespace dfo::learned {
@@ -247,6 +247,33 @@ TEST_F(TrainingTest, ResumeContinuesExactlyWhereTheRunStopped) {
   EXPECT_NEAR(back.back().total, second.history().back().total, 1e-6);
 }
 
+TEST_F(TrainingTest, GeometryConsistencyTermIsTrainedRecordedAndKeptByCheckpointAndCsv) {
+  const std::string dir = test::MakeTempDir("train_consistency");
+  TrainingOptions o = TinyOptions();  // 3 AE + 5 joint iterations
+  o.loss.depth_consistency_weight = 0.5;
+  Trainer trainer(o, {*data_});
+  trainer.Run(nullptr, dir + "/checkpoint.pt", nullptr);
+  const std::vector<StepRecord>& h = trainer.history();
+  ASSERT_EQ(h.size(), 8u);
+  for (int i = 0; i < 3; ++i) EXPECT_EQ(h[i].consistency, 0.0) << "AE iteration " << i + 1;
+  for (int i = 3; i < 8; ++i) {
+    // The untrained network gives each frame its own depth: a positive, finite term.
+    EXPECT_GT(h[i].consistency, 0.0) << "joint iteration " << i + 1;
+    EXPECT_LT(h[i].consistency, 1.0) << "joint iteration " << i + 1;
+  }
+  Trainer resumed(o, {*data_});
+  resumed.LoadCheckpoint(dir + "/checkpoint.pt");
+  ASSERT_EQ(resumed.history().size(), 8u);
+  EXPECT_EQ(resumed.history()[5].consistency, h[5].consistency);
+  WriteHistoryCsv(dir + "/losses.csv", h);
+  EXPECT_NEAR(ReadHistoryCsv(dir + "/losses.csv")[5].consistency, h[5].consistency,
+              1e-8 * h[5].consistency);
+  // Off (the default): the term is not computed.
+  Trainer off(TinyOptions(), {*data_});
+  off.Run(nullptr, "", nullptr);
+  for (const StepRecord& r : off.history()) EXPECT_EQ(r.consistency, 0.0);
+}
+
 TEST_F(TrainingTest, BadCheckpointAndShapeMismatchAreInputErrors) {
   const std::string dir = test::MakeTempDir("train_badckpt");
   TrainingOptions o = TinyOptions();
@@ -387,11 +414,11 @@ TEST(ViewSynthesisTest, GroundTruthDepthAndPosesGiveTheLowestLoss) {
             ViewSynthesisLoss(batch, escaped, batch.gt_rotation, batch.gt_translation, variant)
                 .item<double>();
         EXPECT_LT(truth_loss, escape_loss)
-            << levels << " levels, full_resolution " << full_resolution << ", automask "
-            << automask << ": truth " << truth_loss << ", bottom rows out " << escape_loss;
+            << levels << " levels, full_resolution " << full_resolution << ", automask " << automask
+            << ": truth " << truth_loss << ", bottom rows out " << escape_loss;
         EXPECT_LT(truth_loss, 0.6 * far_loss)
-            << levels << " levels, full_resolution " << full_resolution << ", automask "
-            << automask << ": truth " << truth_loss << ", top at 1000 m " << far_loss;
+            << levels << " levels, full_resolution " << full_resolution << ", automask " << automask
+            << ": truth " << truth_loss << ", top at 1000 m " << far_loss;
       }
     }
     // The true scale is the best of a few (the warp's translation is metric).

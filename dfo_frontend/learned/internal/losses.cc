@@ -26,6 +26,8 @@ void Require(bool ok, const char* field, double value, const char* rule) {
 void LossOptions::Check() const {
   Require(ssim_weight >= 0.0 && ssim_weight <= 1.0, "ssim_weight", ssim_weight, "in [0, 1]");
   Require(dssim_clamp > 0.0, "dssim_clamp", dssim_clamp, "> 0");
+  Require(depth_consistency_weight >= 0.0, "depth_consistency_weight", depth_consistency_weight,
+          ">= 0");
   Require(l1_clamp > 0.0, "l1_clamp", l1_clamp, "> 0");
   Require(smooth_weight >= 0.0, "smooth_weight", smooth_weight, ">= 0");
   Require(sparsity_weight >= 0.0, "sparsity_weight", sparsity_weight, ">= 0");
@@ -130,7 +132,8 @@ torch::Tensor SampleBilinear(const torch::Tensor& image, const torch::Tensor& x,
 
 torch::Tensor InverseWarp(const torch::Tensor& source, const torch::Tensor& depth,
                           const torch::Tensor& rotation, const torch::Tensor& translation,
-                          const torch::Tensor& intrinsics, torch::Tensor* valid) {
+                          const torch::Tensor& intrinsics, torch::Tensor* valid,
+                          torch::Tensor* projected_depth) {
   const int64_t n = source.size(0), c = source.size(1), h = source.size(2), w = source.size(3);
   DFO_CHECK(depth.size(0) == n && depth.size(2) == h && depth.size(3) == w)
       << depth.sizes() << " vs " << source.sizes();
@@ -157,7 +160,25 @@ torch::Tensor InverseWarp(const torch::Tensor& source, const torch::Tensor& dept
                  .to(source.dtype())
                  .reshape({n, 1, h, w});
   }
+  if (projected_depth) *projected_depth = z_safe.reshape({n, 1, h, w});
   return out;
+}
+
+torch::Tensor DepthConsistencyLoss(const torch::Tensor& target_depth,
+                                   const torch::Tensor& source_depth, const torch::Tensor& rotation,
+                                   const torch::Tensor& translation,
+                                   const torch::Tensor& intrinsics,
+                                   const torch::Tensor& sample_weight) {
+  const int64_t n = target_depth.size(0);
+  DFO_CHECK(source_depth.sizes() == target_depth.sizes())
+      << source_depth.sizes() << " vs " << target_depth.sizes();
+  DFO_CHECK(sample_weight.numel() == n) << sample_weight.sizes() << " for " << n << " samples";
+  torch::Tensor valid, z;
+  const torch::Tensor sampled =
+      InverseWarp(source_depth, target_depth, rotation, translation, intrinsics, &valid, &z);
+  const torch::Tensor difference = (z - sampled).abs() / (z + sampled);
+  const torch::Tensor weight = valid * sample_weight.to(valid.dtype()).view({n, 1, 1, 1}).detach();
+  return (difference * weight).sum() / weight.sum().clamp_min(1.0);
 }
 
 }  // namespace dfo::learned

@@ -55,6 +55,14 @@ struct LossOptions {
   // levels then also learn from the fine texture instead of from blurred images, where "no
   // parallax" fits almost as well.
   bool full_resolution = false;
+  // Geometry consistency (SC-SfMLearner, Bian et al. 2019), weight >= 0, 0 = off: the target's
+  // depth moved into each source by the alignment's pose against the source's own predicted
+  // depth at the projected pixel, |z - d_s| / (z + d_s) averaged over the pixels inside the
+  // source (finest level; samples whose alignment failed are left out). The three frames' depths
+  // share the target's gauge factor, so this ties the network's raw scale of consecutive frames
+  // together: the per-image gauge alone leaves each image's scale free (every image then keeps
+  // the prior's geometric mean, whatever its scene).
+  double depth_consistency_weight = 0.0;
 
   // Throws ConfigError naming the field, value and rule.
   void Check() const;
@@ -91,11 +99,24 @@ torch::Tensor ReconstructionLoss(const torch::Tensor& reconstruction, const torc
 // d(u) (N x 1 x H x W, metres), p = d K^-1 u is moved into the source view by source_from_target
 // (rotation N x 3 x 3, translation N x 3) and the source image (N x C x H x W) is sampled
 // bilinearly at pi(K p). Returns the reconstruction of the target; *valid (optional) receives
-// N x 1 x H x W with 1 where the sample lies inside the source image and in front of the camera.
+// N x 1 x H x W with 1 where the sample lies inside the source image and in front of the camera;
+// *projected_depth (optional) the depth of p in the source view, N x 1 x H x W, floored at 1 mm
+// (differentiable).
 // `intrinsics` is N x 4 (fx, fy, cx, cy) for this H x W, pixel centres at integers.
 torch::Tensor InverseWarp(const torch::Tensor& source, const torch::Tensor& depth,
                           const torch::Tensor& rotation, const torch::Tensor& translation,
-                          const torch::Tensor& intrinsics, torch::Tensor* valid = nullptr);
+                          const torch::Tensor& intrinsics, torch::Tensor* valid = nullptr,
+                          torch::Tensor* projected_depth = nullptr);
+
+// The geometry-consistency term of LossOptions::depth_consistency_weight: target_depth and
+// source_depth N x 1 x H x W (metres, same gauge), source_from_target as for InverseWarp,
+// sample_weight N (1 = use the sample, 0 = leave it out). Mean of |z - d_s(u')| / (z + d_s(u'))
+// over the pixels whose projection u' lies inside the source and in front of it; 0 when none.
+torch::Tensor DepthConsistencyLoss(const torch::Tensor& target_depth,
+                                   const torch::Tensor& source_depth, const torch::Tensor& rotation,
+                                   const torch::Tensor& translation,
+                                   const torch::Tensor& intrinsics,
+                                   const torch::Tensor& sample_weight);
 
 // Samples `image` (N x C x H x W) bilinearly at pixel coordinates `x`, `y` (N x ...; pixel
 // centres at integers, align_corners semantics); outside the image, the nearest border pixel

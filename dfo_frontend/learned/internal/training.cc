@@ -66,9 +66,11 @@ torch::Tensor MeanAbsGrey(const torch::Tensor& a, const torch::Tensor& b) {
   return (a.to(torch::kFloat32).mean(0) - b.to(torch::kFloat32).mean(0)).abs().mean() / 255.0;
 }
 
-// Columns of the history (checkpoint tensor and CSV); checkpoints and CSVs written before the
-// pose-error diagnostic have the first 12 (the two pose errors then read NaN).
-constexpr int kHistoryColumns = 14;
+// Columns of the history (checkpoint tensor and CSV). Older checkpoints and CSVs have fewer:
+// the first 12 before the pose-error diagnostic (the two pose errors then read NaN), the first
+// 14 before the geometry-consistency term (it then reads 0).
+constexpr int kHistoryColumns = 15;
+constexpr int kPoseErrorColumns = 14;
 constexpr int kOldHistoryColumns = 12;
 
 }  // namespace
@@ -157,8 +159,7 @@ torch::Tensor ViewSynthesisLoss(const Trainer::Batch& batch,
       // The unwarped sources; + 1e-5 lets a warp win an exact tie (Monodepth2 adds noise).
       for (int s = 0; s < 2; ++s) {
         maps.push_back(
-            AppearanceMap(targets[il].contiguous(), sources[s][il].contiguous(), options)
-                .detach() +
+            AppearanceMap(targets[il].contiguous(), sources[s][il].contiguous(), options).detach() +
             1e-5);
       }
     }
@@ -169,7 +170,8 @@ torch::Tensor ViewSynthesisLoss(const Trainer::Batch& batch,
 }
 
 std::vector<torch::Tensor> NormaliseDepthScale(const std::vector<torch::Tensor>& raw,
-                                               const LossOptions& options, torch::Tensor* prior) {
+                                               const LossOptions& options, torch::Tensor* prior,
+                                               torch::Tensor* factor) {
   // Scale gauge: monocular snippets leave the depth scale unobservable (the alignment's
   // translation scales with it), so the depths are normalised (LossOptions::depth_gauge) to
   // depth_mean_m, and a weak prior keeps the raw output's geometric mean there (metric-ish, away
@@ -179,12 +181,13 @@ std::vector<torch::Tensor> NormaliseDepthScale(const std::vector<torch::Tensor>&
   // unnormalised, the initial 0.2 m depths put every warped pixel outside the sources and the
   // depth collapsed to the 0.1 m floor; measured.)
   *prior = torch::zeros({});
+  if (factor) *factor = torch::ones({raw[0].size(0), 1, 1, 1});
   if (options.depth_mean_m <= 0.0) return raw;
   const torch::Tensor log_mean = torch::log(raw[0]).mean();
   const double log_target = std::log(options.depth_mean_m);
-  torch::Tensor factor;
+  torch::Tensor gauge;
   if (options.depth_gauge == LossOptions::DepthGauge::kGeometricMean) {
-    factor = torch::exp(log_target - log_mean);
+    gauge = torch::exp(log_target - log_mean).view({1, 1, 1, 1}).expand({raw[0].size(0), 1, 1, 1});
   } else {
     // Per image: its median depth goes to depth_mean_m. Only each image's median pixel carries
     // the normalisation's gradient. With the batch geometric mean every pixel did: d L / d log
@@ -194,11 +197,12 @@ std::vector<torch::Tensor> NormaliseDepthScale(const std::vector<torch::Tensor>&
     // instead let the raw scale drift to the ceiling.
     const int64_t n = raw[0].size(0);
     const torch::Tensor median = std::get<0>(raw[0].reshape({n, -1}).median(1));
-    factor = (options.depth_mean_m / median).view({n, 1, 1, 1});
+    gauge = (options.depth_mean_m / median).view({n, 1, 1, 1});
   }
   std::vector<torch::Tensor> out;
-  for (const torch::Tensor& d : raw) out.push_back(d * factor);
+  for (const torch::Tensor& d : raw) out.push_back(d * gauge);
   *prior = (log_mean - log_target).pow(2);
+  if (factor) *factor = gauge;
   return out;
 }
 
@@ -498,8 +502,16 @@ StepRecord Trainer::JointStep(const Batch& batch, int iteration) {
   const auto t0 = Clock::now();
   const DepthNetOutput raw_depth = networks_->depth->forward(batch.target);
   torch::Tensor scale_prior = torch::zeros({});
+  torch::Tensor gauge_factor;
   const std::vector<torch::Tensor> depth_levels =
-      NormaliseDepthScale(raw_depth.depth, options_.loss, &scale_prior);
+      NormaliseDepthScale(raw_depth.depth, options_.loss, &scale_prior, &gauge_factor);
+  // The sources' own depth (finest level) in the target's gauge, for the geometry consistency.
+  torch::Tensor source_depth[2];
+  if (options_.loss.depth_consistency_weight > 0.0) {
+    const torch::Tensor both =
+        networks_->depth->forward(torch::cat({batch.previous, batch.next}, 0)).depth[0];
+    for (int s = 0; s < 2; ++s) source_depth[s] = both.narrow(0, s * n, n) * gauge_factor;
+  }
   DepthNetOutput depth = raw_depth;
   depth.depth = depth_levels;
   const bool ground_truth_poses = options_.pose_source == TrainingOptions::PoseSource::kGroundTruth;
@@ -524,6 +536,8 @@ StepRecord Trainer::JointStep(const Batch& batch, int iteration) {
   // Poses source_from_target by the differentiable alignment, per sample and source (or, as a
   // diagnostic, the ground truth).
   torch::Tensor rotation[2], translation[2];
+  // 1 where the sample's pose toward source s is usable (the alignment succeeded).
+  torch::Tensor pose_ok[2] = {torch::ones({n}), torch::ones({n})};
   if (ground_truth_poses) {
     DFO_CHECK(batch.has_ground_truth);
     for (int s = 0; s < 2; ++s) {
@@ -560,6 +574,7 @@ StepRecord Trainer::JointStep(const Batch& batch, int iteration) {
         }
         const DiffGnResult gn =
             DifferentiableAlign(ref, cur, PoseTensor::FromSE3(SE3d()), options_.gn);
+        pose_ok[s][b] = gn.ok ? 1.0 : 0.0;
         if (gn.ok) {
           ++gn_ok;
           rotations[s].push_back(gn.cur_from_ref.rotation.to(torch::kFloat32));
@@ -612,6 +627,15 @@ StepRecord Trainer::JointStep(const Batch& batch, int iteration) {
     const torch::Tensor disparity = 10.0 * depth.sigmoid[l] + 0.01;
     smoothness = smoothness + SmoothnessLoss(disparity, targets[l]) * scale;
   }
+  torch::Tensor consistency = torch::zeros({});
+  if (options_.loss.depth_consistency_weight > 0.0) {
+    for (int s = 0; s < 2; ++s) {
+      consistency =
+          consistency + 0.5 * DepthConsistencyLoss(depth.depth[0].contiguous(),
+                                                   source_depth[s].contiguous(), rotation[s],
+                                                   translation[s], batch.intrinsics, pose_ok[s]);
+    }
+  }
   torch::Tensor reconstruction = torch::zeros({});
   if (options_.loss.ae_weight > 0.0) {
     const std::vector<torch::Tensor> recon = networks_->feature->Reconstruct(target.features);
@@ -622,7 +646,8 @@ StepRecord Trainer::JointStep(const Batch& batch, int iteration) {
   const torch::Tensor total = appearance + options_.loss.smooth_weight * smoothness +
                               options_.loss.sparsity_weight * sparsity +
                               options_.loss.ae_weight * reconstruction +
-                              options_.loss.depth_prior_weight * scale_prior;
+                              options_.loss.depth_prior_weight * scale_prior +
+                              options_.loss.depth_consistency_weight * consistency;
   optimizer_->zero_grad();
   const auto t3 = Clock::now();
   total.backward();
@@ -642,6 +667,7 @@ StepRecord Trainer::JointStep(const Batch& batch, int iteration) {
   rec.smoothness = smoothness.item<double>();
   rec.sparsity = sparsity.item<double>();
   rec.reconstruction = reconstruction.item<double>();
+  rec.consistency = consistency.item<double>();
   rec.mean_depth = raw_depth.depth[0].detach().median().item<double>();
   return rec;
 }
@@ -716,7 +742,8 @@ void Trainer::SaveCheckpoint(const std::string& path) const {
                                          r.mean_depth,
                                          r.seconds,
                                          r.pose_rotation_error_deg,
-                                         r.pose_direction_error_deg};
+                                         r.pose_direction_error_deg,
+                                         r.consistency};
     for (int c = 0; c < kHistoryColumns; ++c) a[i][c] = row[c];
   }
   archive.write("history", h);
@@ -791,10 +818,11 @@ void Trainer::LoadCheckpoint(const std::string& path) {
       r.gn_ok_ratio = a[i][9];
       r.mean_depth = a[i][10];
       r.seconds = a[i][11];
-      if (h.size(1) >= kHistoryColumns) {
+      if (h.size(1) >= kPoseErrorColumns) {
         r.pose_rotation_error_deg = a[i][12];
         r.pose_direction_error_deg = a[i][13];
       }
+      if (h.size(1) >= kHistoryColumns) r.consistency = a[i][14];
       history_.push_back(r);
     }
   } catch (const c10::Error& e) {
@@ -832,13 +860,14 @@ void WriteHistoryCsv(const std::string& path, const std::vector<StepRecord>& his
   if (!out) throw InputError("loss history " + path + ": cannot be written");
   out << "iteration,stage,total,appearance,smoothness,sparsity,reconstruction,learning_rate,"
          "temperature,gn_ok_ratio,mean_depth_m,seconds,pose_rotation_error_deg,"
-         "pose_direction_error_deg\n";
+         "pose_direction_error_deg,consistency\n";
   out.precision(9);
   for (const StepRecord& r : history) {
     out << r.iteration << "," << r.stage << "," << r.total << "," << r.appearance << ","
         << r.smoothness << "," << r.sparsity << "," << r.reconstruction << "," << r.learning_rate
         << "," << r.temperature << "," << r.gn_ok_ratio << "," << r.mean_depth << "," << r.seconds
-        << "," << r.pose_rotation_error_deg << "," << r.pose_direction_error_deg << "\n";
+        << "," << r.pose_rotation_error_deg << "," << r.pose_direction_error_deg << ","
+        << r.consistency << "\n";
   }
   if (!out) throw InputError("loss history " + path + ": write failed");
 }
@@ -856,7 +885,8 @@ std::vector<StepRecord> ReadHistoryCsv(const std::string& path) {
     std::string field;
     std::vector<std::string> f;
     while (std::getline(ss, field, ',')) f.push_back(field);
-    if (f.size() != kHistoryColumns && f.size() != kOldHistoryColumns) {
+    if (f.size() != kHistoryColumns && f.size() != kPoseErrorColumns &&
+        f.size() != kOldHistoryColumns) {
       std::ostringstream msg;
       msg << "loss history " << path << ":" << line_no << ": " << f.size() << " fields, expected "
           << kHistoryColumns;
@@ -876,10 +906,11 @@ std::vector<StepRecord> ReadHistoryCsv(const std::string& path) {
       r.gn_ok_ratio = std::stod(f[9]);
       r.mean_depth = std::stod(f[10]);
       r.seconds = std::stod(f[11]);
-      if (f.size() == kHistoryColumns) {
+      if (f.size() >= kPoseErrorColumns) {
         r.pose_rotation_error_deg = std::stod(f[12]);
         r.pose_direction_error_deg = std::stod(f[13]);
       }
+      if (f.size() >= kHistoryColumns) r.consistency = std::stod(f[14]);
       out.push_back(r);
     } catch (const std::exception&) {
       std::ostringstream msg;

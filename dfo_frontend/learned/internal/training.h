@@ -157,6 +157,7 @@ struct StepRecord {
   double smoothness = 0.0;
   double sparsity = 0.0;
   double reconstruction = 0.0;
+  double consistency = 0.0;  // geometry-consistency term (LossOptions::depth_consistency_weight)
   double learning_rate = 0.0;
   double temperature = 0.0;
   double gn_ok_ratio = 0.0;  // fraction of alignments whose finest level succeeded
@@ -268,9 +269,11 @@ torch::Tensor ViewSynthesisLoss(const Trainer::Batch& batch,
 // batch's geometric mean (kGeometricMean) to options.depth_mean_m, and *prior = log(raw batch
 // geometric mean / depth_mean_m)^2. depth_mean_m = 0: `raw` unchanged and a zero prior. With
 // kMedian a pixel's normalised depth depends on its own raw depth and its image's median pixel
-// only.
+// only. *factor (optional) receives the factor, N x 1 x 1 x 1 (ones when depth_mean_m = 0), so
+// that other frames' depths can be brought into the same gauge.
 std::vector<torch::Tensor> NormaliseDepthScale(const std::vector<torch::Tensor>& raw,
-                                               const LossOptions& options, torch::Tensor* prior);
+                                               const LossOptions& options, torch::Tensor* prior,
+                                               torch::Tensor* factor = nullptr);
 
 // Angles (degrees) between two poses b_from_a: rotation error and the angle between the
 // translation directions (NaN when either translation is shorter than 1e-9).
