@@ -68,13 +68,15 @@ options:
   --help              this text
 Flags also take their value after '=' (--output=DIR).
 
-Sources (section frontend): features = handmade | learned, depth = gt | learned, in any mix.
-  gt       the dataset's depth maps (TUM depth/, the depth_0/ folder dfo_synth writes); a dataset
-           without them (KITTI odometry) needs frontend.depth = learned
+Sources (section frontend): features = handmade | learned, depth = auto | gt | learned, in any
+mix.
+  auto     (default) gt when the dataset has depth maps, else learned
+  gt       the dataset's depth maps (TUM depth/, the depth_0/ folder dfo_synth writes)
   learned  the networks of the model file learned.model (default models/default.dfo, written by
            dfo_train), loaded once and shared by both learned sources; with
-           learned.require_input_size (default) the frames must have the model's input size
-           (dataset.image_width / image_height)
+           learned.require_input_size (default) the frames must have the model's input size:
+           frames are loaded at that size unless dataset.image_width / image_height differ
+           from their defaults
   e.g. --set frontend.depth=learned --set learned.model=out/train_default/model.dfo
 
 Streaming (section lcm): --set lcm.enable=true publishes every frame's pose, the window's
@@ -246,36 +248,59 @@ void PrintLcmLine(const apps::LcmRunStreamer& streamer, const std::vector<double
 }
 
 int Run(const Args& args) {
-  const io::Config config = io::LoadConfig(args.config_path, io::DfoSchema(), args.overrides);
+  io::Config config = io::LoadConfig(args.config_path, io::DfoSchema(), args.overrides);
   if (args.print_config) {
     std::cout << config.ToYaml();
     return 0;
   }
-  FrontendOptions frontend_options = apps::FrontendOptionsFromConfig(config);
-  // keyframe.decided_by = manager: the keyframe manager switches the tracker's reference.
-  frontend_options.reference.policy = apps::ReferencePolicyFromConfig(config);
-  const OdometryOptions odometry_options = apps::OdometryOptionsFromConfig(config);
-  const apps::RunMode mode = odometry_options.mode;
-  // Before anything is loaded or written (the Odometry constructor checks it again).
-  odometry_options.CheckAgainst(frontend_options.tracker);
   io::DatasetOptions dataset = io::DatasetOptionsFromConfig(config);
   if (dataset.path.empty()) {
     throw ConfigError(
         "dataset.path is empty: name the sequence in the configuration or with --set "
         "dataset.path=DIR");
   }
+  // frontend.depth = auto: the dataset's depth maps when it has them, else the network.
+  const bool depth_auto = config.GetString("frontend.depth") == "auto";
+  bool dataset_has_depth = true;
+  if (depth_auto) {
+    io::DatasetOptions probe = dataset;
+    probe.depth = true;
+    dataset_has_depth = io::OpenSequence(probe).has_depth();
+  }
+  FrontendOptions frontend_options = apps::FrontendOptionsFromConfig(config, dataset_has_depth);
+  // keyframe.decided_by = manager: the keyframe manager switches the tracker's reference.
+  frontend_options.reference.policy = apps::ReferencePolicyFromConfig(config);
+  const OdometryOptions odometry_options = apps::OdometryOptionsFromConfig(config);
+  const apps::RunMode mode = odometry_options.mode;
+  // Before anything is loaded or written (the Odometry constructor checks it again).
+  odometry_options.CheckAgainst(frontend_options.tracker);
   // The ground-truth depth source needs the dataset's depth maps loaded with the images.
   if (frontend_options.depth == "gt") dataset.depth = true;
-  const io::Sequence sequence = io::OpenSequence(dataset);
+  io::Sequence sequence = io::OpenSequence(dataset);
   if (frontend_options.depth == "gt" && !sequence.has_depth()) {
     throw InputError("no depth source: dataset " + sequence.name() + " (" + dataset.path +
                      ") has no depth maps; frontend.depth = gt needs ground-truth depth (TUM "
                      "depth/, KITTI-layout depth_0/), or use the depth network: --set "
-                     "frontend.depth=learned");
+                     "frontend.depth=learned (or auto)");
   }
   // The learned sources: one model for both, loaded before anything is written.
   apps::FrontendSources sources =
       apps::MakeFrontendSources(frontend_options, apps::LearnedModelOptionsFromConfig(config));
+  // Unless the frame size is set to another than the default (configs/default.yaml lists the
+  // default), learned sources get frames of the model's input size; config_effective.yaml then
+  // records the size used and why.
+  const io::DatasetOptions default_dataset;
+  if (sources.model && sources.model->options().require_input_size && !dataset.keep_native &&
+      dataset.image_width == default_dataset.image_width &&
+      dataset.image_height == default_dataset.image_height) {
+    const LearnedModelInfo& info = sources.model->info();
+    const std::string source = "the input size of " + info.path;
+    config.Set("dataset.image_width", static_cast<int64_t>(info.input_width), source);
+    config.Set("dataset.image_height", static_cast<int64_t>(info.input_height), source);
+    dataset.image_width = info.input_width;
+    dataset.image_height = info.input_height;
+    sequence = io::OpenSequence(dataset);
+  }
   if (sources.model && sources.model->options().require_input_size) {
     const LearnedModelInfo& info = sources.model->info();
     if (sequence.output_width() != info.input_width ||
@@ -305,9 +330,9 @@ int Run(const Args& args) {
 
   std::cout << "dfo_run: " << sequence.name() << ", " << sequence.size() << " frames of "
             << sequence.output_width() << "x" << sequence.output_height() << ", features "
-            << frontend_options.features << ", depth " << frontend_options.depth << ", "
-            << frontend_options.tracker.num_levels << " levels, mode " << apps::RunModeName(mode)
-            << ", keyframes by "
+            << frontend_options.features << ", depth " << frontend_options.depth
+            << (depth_auto ? " (auto)" : "") << ", " << frontend_options.tracker.num_levels
+            << " levels, mode " << apps::RunModeName(mode) << ", keyframes by "
             << (frontend_options.reference.policy == "external" ? "the keyframe manager"
                                                                 : "the frontend")
             << " -> " << output_dir << "\n";
@@ -389,6 +414,7 @@ int Run(const Args& args) {
 }  // namespace dfo
 
 int main(int argc, char** argv) {
+  dfo::apps::UsePassiveOpenMpWait(argv);
   return dfo::apps::RunMain("dfo_run", [&] {
     const dfo::Args args = dfo::ParseArgs(argc, argv);
     if (args.help) {

@@ -6,7 +6,7 @@
 //   dfo_sweep --collect [--wait] SWEEP.yaml             write the results of what has run
 //   dfo_sweep --run-index I SWEEP.yaml                  run one run (what each array task does)
 //
-// The sweep file is described in dfo_io/sweep_spec.h and README's dfo_sweep section. dfo_sweep
+// The sweep file is described in dfo_io/sweep_spec.h and docs/sweeps.md. dfo_sweep
 // never links LibTorch: every run is a dfo_run process.
 #include <unistd.h>
 

@@ -543,6 +543,7 @@ int Run(const Args& args) {
 }  // namespace dfo
 
 int main(int argc, char** argv) {
+  dfo::apps::UsePassiveOpenMpWait(argv);
   return dfo::apps::RunMain("dfo_train", [&] {
     const dfo::Args args = dfo::ParseArgs(argc, argv);
     if (args.help) {

@@ -81,13 +81,13 @@ struct WindowOptions {
   // depths of that moment: the new keyframe's from the frontend, the others' from the window). It
   // also leaves out the near points' long links, the strongest parallax, so the basin is
   // narrower (tests/backend/window_optimizer_test.cc); measured on 5 synthetic sequences it
-  // helps with learned and true depth and makes the BA ~1.5x faster (README). > 1 (a large value
+  // helps with learned and true depth and makes the BA ~1.5x faster (docs/window.md). > 1 (a large value
   // turns the gate off).
   double max_patch_stretch = 1.5;
   // Points selected per keyframe; in [1, 100000]. 150 (7 keyframes: about 1,000 points in the
   // window; DSO's real-time setting keeps 800 at 424 x 320): over 8 synthetic sequences about as
   // accurate with learned depth as 300 (1-3%), 24-25% worse with true depth, half the BA time
-  // (README).
+  // (docs/window.md).
   int points_per_keyframe = 150;
   // Robust loss on each block: "huber" or "cauchy".
   std::string loss = "huber";
@@ -100,7 +100,7 @@ struct WindowOptions {
   // Levenberg-Marquardt iterations of the first solve per keyframe; the second solve (after the
   // outlier gate) gets half as many, at least 1. >= 1. The window is re-solved at every
   // keyframe, so few iterations per step add up (DSO: 1-6 Gauss-Newton iterations per keyframe).
-  // Measured on 8 synthetic sequences: 2 as accurate as 3 (README).
+  // Measured on 8 synthetic sequences: 2 as accurate as 3 (docs/window.md).
   int max_iterations = 2;
   // Wall-time limit of one solve in seconds; > 0.
   double max_solver_time_s = 0.1;

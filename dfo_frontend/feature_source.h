@@ -52,7 +52,7 @@ struct HandmadeFeatureOptions {
   // it at different scales (forward motion zooms): a blur fixed in pixels is then a different
   // blur on the surface in each view, and the window's optimum moves toward "no zoom" (points
   // too far for the travel: the window's scale grows from keyframe to keyframe). Less blur for
-  // the window shrinks that bias while the tracker keeps its wide basin (README, docs/).
+  // the window shrinks that bias while the tracker keeps its wide basin (docs/window.md).
   double keyframe_blur_sigma_px = -1.0;
 
   // Throws ConfigError naming the field, its value and the rule.

@@ -64,10 +64,12 @@ ConfigSchema BuildSchema() {
               "Feature source: hand-made z-scored intensity and gradients, or the feature network "
               "of the model file learned.model")
       .OneOf({"handmade", "learned"});
-  s.AddString("frontend.depth", "gt",
+  s.AddString("frontend.depth", "auto",
               "Depth source: the dataset's ground-truth depth maps (TUM depth/, KITTI-layout "
-              "depth_0/), or the depth network of learned.model (datasets without depth maps)")
-      .OneOf({"gt", "learned"});
+              "depth_0/), the depth network of learned.model, or auto = the maps when the dataset "
+              "has them, else the network (frames then at the model's input size unless "
+              "dataset.image_width/image_height differ from their defaults)")
+      .OneOf({"auto", "gt", "learned"});
   s.AddString("frontend.handmade_descriptor", "intensity_gradients",
               "Hand-made channels: intensity alone (1), intensity and its x/y gradients (3), or "
               "rich = those plus a 3x3-blurred intensity and the gradient magnitude (5)")
@@ -86,7 +88,7 @@ ConfigSchema BuildSchema() {
   s.AddString("frontend.depth_scale", "none",
               "Depth scale of a new reference: none (the source's maps as they are) or propagate "
               "(rescaled to agree with the old reference's points; measured worse with the "
-              "default learned model, see README)")
+              "default learned model, see models/README.md)")
       .OneOf({"none", "propagate"});
 
   // Defaults mirror LearnedModelOptions (dfo_frontend/learned/learned_sources.h) except the model

@@ -76,7 +76,7 @@ for which in frontend windowed; do
     "learned depth, $which:" "$(fixed ate_rmse $which 4)" "$(fixed ate_rmse_pct_of_path $which 3)" \
     "$(fixed ate_rmse_se3 $which 4)" "$(fixed rpe_trans_rmse $which 4)"
 done
-echo "                          (208 x 64; ground-truth depth at that size: see README; pictures in $OUT_DIR/run_learned/)"
+echo "                          (208 x 64; ground-truth depth at that size: see docs/window.md; pictures in $OUT_DIR/run_learned/)"
 SUMMARY="$OUT_DIR/run/summary.json"
 echo "speed:                    $(fixed fps '' 1) frames/s (whole run: loading PNGs + frontend + window); window per keyframe median $(fixed median backend_per_keyframe 1) ms"
 echo "sequence (KITTI layout):  $OUT_DIR/synthetic/sequences/00  (image_0, image_2, depth_0, calib.txt, times.txt)"

@@ -1,6 +1,10 @@
 #include "apps/common/cli.h"
 
+#include <unistd.h>
+
+#include <cstdlib>
 #include <exception>
+#include <fstream>
 #include <iostream>
 
 namespace dfo::apps {
@@ -26,6 +30,23 @@ int RunMain(const std::string& program, const std::function<int()>& body, bool h
     std::cerr << program << ": error: " << e.what() << "\n";
     return 1;
   }
+}
+
+void UsePassiveOpenMpWait(char** argv) {
+  if (std::getenv("OMP_WAIT_POLICY") != nullptr) return;
+  if (setenv("OMP_WAIT_POLICY", "PASSIVE", 1) != 0) return;
+  execv("/proc/self/exe", argv);
+  // Only reached when the re-execution failed: the runtime keeps its default wait.
+}
+
+std::string OpenMpWaitPolicyAtStart() {
+  std::ifstream in("/proc/self/environ", std::ios::binary);
+  const std::string prefix = "OMP_WAIT_POLICY=";
+  std::string entry;
+  while (std::getline(in, entry, '\0')) {
+    if (entry.compare(0, prefix.size(), prefix) == 0) return entry.substr(prefix.size());
+  }
+  return "";
 }
 
 }  // namespace dfo::apps

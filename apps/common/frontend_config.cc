@@ -11,10 +11,11 @@ int ThreadsFromConfig(const io::Config& config) {
   return std::max(1, static_cast<int>(std::thread::hardware_concurrency()));
 }
 
-FrontendOptions FrontendOptionsFromConfig(const io::Config& config) {
+FrontendOptions FrontendOptionsFromConfig(const io::Config& config, bool dataset_has_depth) {
   FrontendOptions o;
   o.features = config.GetString("frontend.features");
   o.depth = config.GetString("frontend.depth");
+  if (o.depth == "auto") o.depth = dataset_has_depth ? "gt" : "learned";
   o.handmade.descriptor = config.GetString("frontend.handmade_descriptor");
   o.handmade.blur_sigma_px = config.GetDouble("frontend.handmade_blur_sigma_px");
   o.handmade.keyframe_blur_sigma_px = config.GetDouble("frontend.handmade_keyframe_blur_sigma_px");

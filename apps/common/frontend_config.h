@@ -14,7 +14,9 @@ namespace dfo::apps {
 // run.threads -> num_threads (0 = std::thread::hardware_concurrency(), at least 1). Then checks
 // the result (FrontendOptions::Check) and throws ConfigError on a rule the schema cannot express
 // (e.g. an even tracker.patch_size).
-FrontendOptions FrontendOptionsFromConfig(const io::Config& config);
+// frontend.depth = auto becomes "gt" when `dataset_has_depth` (the dataset has depth maps), else
+// "learned".
+FrontendOptions FrontendOptionsFromConfig(const io::Config& config, bool dataset_has_depth = true);
 
 // The thread count `run.threads` asks for (0 = all hardware threads, at least 1).
 int ThreadsFromConfig(const io::Config& config);

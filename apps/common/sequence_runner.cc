@@ -11,6 +11,7 @@
 #include <memory>
 #include <utility>
 
+#include "apps/common/cli.h"
 #include "apps/common/run_stats.h"
 #include "dfo_core/error.h"
 #include "dfo_io/plot.h"
@@ -353,6 +354,12 @@ io::JsonValue MakeRunSummary(const SequenceRunResult& result, const RunEvaluatio
                                    : std::numeric_limits<double>::quiet_NaN());
   s.Set("wall_s", result.wall_s);
   s.Set("peak_rss_mb", PeakRssMb());
+  const std::string wait_policy = OpenMpWaitPolicyAtStart();
+  if (wait_policy.empty()) {
+    s.Set("openmp_wait_policy", io::JsonValue());
+  } else {
+    s.Set("openmp_wait_policy", wait_policy);
+  }
   if (!result.error.empty()) s.Set("error", result.error);
   return s;
 }

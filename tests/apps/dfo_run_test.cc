@@ -9,6 +9,7 @@
 #include <cstdio>
 #include <filesystem>
 #include <fstream>
+#include <iostream>
 #include <limits>
 #include <sstream>
 #include <stdexcept>
@@ -252,6 +253,71 @@ TEST(DfoRunBadInput, DatasetWithoutDepthNeedsADepthSource) {
   const std::string out = test::MakeTempDir("dfo_run_no_depth_out");
   ExpectOneLineError(RunDfoRun(RunArgs(root, out)),
                      {"no depth source", "has no depth maps", "--set frontend.depth=learned"});
+}
+
+// Every dfo_run configuration in configs/ runs with only dataset.path (and dataset.sequence)
+// changed: on the synthetic KITTI-layout sequence with its depth maps, kitti.yaml and default.yaml
+// also without them (frontend.depth = auto then takes the network, at the model's input size),
+// and on the real KITTI and TUM extracts of ../shared/data when present.
+TEST(DfoRun, ShippedConfigsRunWithOnlyThePathChanged) {
+  const std::string with_depth = MakeSequence("dfo_run_shipped");
+  const std::string without_depth = MakeSequence("dfo_run_shipped_no_depth");
+  fs::remove_all(without_depth + "/sequences/00/depth_0");
+  const std::string out = test::MakeTempDir("dfo_run_shipped_out");
+  struct Case {
+    std::string config, path, sequence, expect;
+  };
+  std::vector<Case> cases;
+  for (const char* config : {"default", "demo", "demo_learned", "synthetic", "kitti"}) {
+    cases.push_back({config, with_depth, "00", ""});
+  }
+  cases.push_back({"kitti", without_depth, "00", "depth learned (auto)"});
+  cases.push_back({"default", without_depth, "00", "depth learned (auto)"});
+  const std::string shared = test::SharedDataDir();
+  if (!shared.empty()) {
+    cases.push_back({"kitti", shared + "/kitti", "06", "depth learned (auto)"});
+    cases.push_back({"tum", shared + "/tum/fr3_cabinet_keyframes", "", ""});
+  } else {
+    std::cout << "[ SKIPPED  ] the real KITTI and TUM cases: ../shared/data is absent\n";
+  }
+  int n = 0;
+  for (const Case& c : cases) {
+    const std::string run_out = out + "/" + std::to_string(n++) + "_" + c.config;
+    std::string args = "--config " + test::SourceDir() + "/configs/" + c.config +
+                       ".yaml --set dataset.path=" + c.path + " --set dataset.last=4" +
+                       " --set run.progress=none --output " + run_out;
+    if (!c.sequence.empty()) args += " --set dataset.sequence=" + c.sequence;
+    // From the project root, as users run it (the configs' model path is relative to it).
+    const CommandResult r =
+        RunCommand("cd " + test::SourceDir() + " && " + std::string(DFO_RUN_EXE), args);
+    ASSERT_EQ(r.status, 0) << c.config << " on " << c.path << ":\n" << r.out << r.err;
+    EXPECT_TRUE(fs::exists(run_out + "/summary.json")) << c.config;
+    if (!c.expect.empty()) {
+      EXPECT_NE(r.out.find(c.expect), std::string::npos) << c.config << ": " << r.out;
+      // The frames come at the model's input size, and the effective configuration says why.
+      EXPECT_NE(r.out.find("of 208x64"), std::string::npos) << r.out;
+      EXPECT_NE(ReadFile(run_out + "/config_effective.yaml").find("# from the input size of"),
+                std::string::npos);
+    }
+  }
+}
+
+// The OpenMP runtime reads OMP_WAIT_POLICY when it loads, before main(): dfo_run re-executes
+// itself with PASSIVE when the variable is unset, and summary.json reports the value its process
+// image started with (/proc/self/environ, which a mere setenv() would not change).
+TEST(DfoRun, StartsOpenMpWithPassiveWaitUnlessTheUserChoseAnother) {
+  const std::string root = MakeSequence("dfo_run_omp");
+  const std::string out = test::MakeTempDir("dfo_run_omp_out");
+  const std::string args = "--config " + test::SourceDir() + "/configs/demo.yaml --set " +
+                           "dataset.path=" + root + " --set dataset.last=2 --set run.progress=none";
+  const CommandResult unset = RunCommand("env -u OMP_WAIT_POLICY " + std::string(DFO_RUN_EXE),
+                                         args + " --output " + out + "/unset");
+  ASSERT_EQ(unset.status, 0) << unset.err;
+  EXPECT_EQ(ReadSummary(out + "/unset")["openmp_wait_policy"].AsString(), "PASSIVE");
+  const CommandResult chosen = RunCommand("env OMP_WAIT_POLICY=ACTIVE " + std::string(DFO_RUN_EXE),
+                                          args + " --output " + out + "/chosen");
+  ASSERT_EQ(chosen.status, 0) << chosen.err;
+  EXPECT_EQ(ReadSummary(out + "/chosen")["openmp_wait_policy"].AsString(), "ACTIVE");
 }
 
 TEST(DfoRunBadInput, DepthFullOfZerosIsLostNotACrash) {

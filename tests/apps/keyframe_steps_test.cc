@@ -1,4 +1,4 @@
-// tools/keyframe_steps.py (README, "Keyframes and the sliding window"): on a constructed run whose
+// tools/keyframe_steps.py (docs/window.md, "Keyframes and the sliding window"): on a constructed run whose
 // windowed keyframe steps are each 6 cm too long along the travel, it reports exactly that, and
 // nothing for the exact frontend. Skipped when /usr/bin/python3 with numpy is absent.
 #include <gtest/gtest.h>
