@@ -8,7 +8,10 @@
 // Run `dfo_run --help` for the details. Errors print one line on stderr and exit with status 1
 // (2 for command-line mistakes). An error in the middle of the sequence (an unreadable image)
 // still writes everything computed up to that frame, with the message in summary.json's "error".
+#include <atomic>
+#include <csignal>
 #include <cstdio>
+#include <cstring>
 #include <exception>
 #include <filesystem>
 #include <iostream>
@@ -247,6 +250,15 @@ void PrintLcmLine(const apps::LcmRunStreamer& streamer, const std::vector<double
   }
 }
 
+// The signal that asked the run to stop (0: none). SIGINT, SIGTERM and SIGHUP end the run at
+// the next frame with every output written; a second one ends the process at once.
+std::atomic<int> g_stop_signal{0};
+
+extern "C" void OnStopSignal(int signal) {
+  g_stop_signal.store(signal);
+  std::signal(signal, SIG_DFL);
+}
+
 int Run(const Args& args) {
   io::Config config = io::LoadConfig(args.config_path, io::DfoSchema(), args.overrides);
   if (args.print_config) {
@@ -320,6 +332,8 @@ int Run(const Args& args) {
   if (!std::filesystem::is_directory(output_dir, ec)) {
     throw InputError("cannot create output folder " + output_dir);
   }
+  // A reused folder: the outputs of an earlier run (perhaps of another run.mode) go first.
+  const std::vector<std::string> stale = apps::RemoveRunOutputs(output_dir);
   // Written first, so that even a run that fails half-way can be repeated.
   const std::string config_path = output_dir + "/config_effective.yaml";
   config.WriteYaml(config_path);
@@ -338,6 +352,10 @@ int Run(const Args& args) {
             << " -> " << output_dir << "\n";
   if (sources.model) std::cout << "  " << apps::DescribeLearnedModel(*sources.model) << "\n";
   if (streamer) std::cout << "  lcm: publishing on " << streamer->Describe() << "\n";
+  if (!stale.empty()) {
+    std::cout << "  removed " << stale.size() << " output file(s) of an earlier run from "
+              << output_dir << "\n";
+  }
   for (const auto& key : config.schema().keys()) {
     if (!config.IsDefault(key.path)) {
       std::cout << "  " << key.path << " = " << io::FormatConfigValue(config.Get(key.path)) << "  ("
@@ -364,6 +382,19 @@ int Run(const Args& args) {
       streamer->PublishKeyframeBatch(keyframe.frame_index, so_far, system.poses());
     };
   }
+  // frames.csv and the frontend trajectories are written as the run goes (a killed run keeps
+  // them); a stop signal ends the run at the next frame with every output written; a closed
+  // stdout (dfo_run ... | head) must not end it either.
+  apps::LiveRunFiles live(output_dir, mode != apps::RunMode::kWindowed);
+  run_options.frame_observer = [&, stream = run_options.frame_observer](
+                                   const apps::FrameRecord& frame,
+                                   const apps::SequenceRunResult& so_far, const Odometry& system) {
+    live.Append(frame, system.poses().FrontendPose(frame.tracked.index));
+    if (stream) stream(frame, so_far, system);
+  };
+  run_options.stop_signal = &g_stop_signal;
+  std::signal(SIGPIPE, SIG_IGN);
+  for (const int signal : {SIGINT, SIGTERM, SIGHUP}) std::signal(signal, OnStopSignal);
   const apps::SequenceRunResult result = apps::RunSequence(provider, &odometry, run_options);
   if (streamer) streamer->Finish(result);
   const apps::RunOutputs outputs =
@@ -401,13 +432,23 @@ int Run(const Args& args) {
   PrintComparison(result, outputs);
   std::cout.flush();
 
+  for (const std::string& what : live.problems()) std::cerr << "dfo_run: warning: " << what << "\n";
+  for (const std::string& what : outputs.incomplete) {
+    std::cerr << "dfo_run: error: not written completely: " << what << "\n";
+  }
+  if (result.interrupted_signal != 0) {
+    std::cerr << "dfo_run: interrupted by " << apps::SignalName(result.interrupted_signal)
+              << " after " << result.frames.size() << " of " << result.frames_in_sequence
+              << " frames; their results are in " << output_dir << "\n";
+    return 128 + result.interrupted_signal;
+  }
   if (!result.error.empty()) {
     std::cerr << "dfo_run: error: " << result.error << " (stopped after " << result.frames.size()
               << " of " << result.frames_in_sequence << " frames; their results are in "
               << output_dir << ")\n";
     return 1;
   }
-  return 0;
+  return outputs.incomplete.empty() ? 0 : 1;
 }
 
 }  // namespace

@@ -6,6 +6,7 @@
 #include <cmath>
 #include <cstdio>
 #include <cstdlib>
+#include <cstring>
 #include <filesystem>
 #include <fstream>
 #include <sstream>
@@ -34,21 +35,37 @@ std::ifstream OpenForReading(const std::string& path, const char* what) {
   return in;
 }
 
+// Files are written to "<path>.tmp" and renamed onto `path` once complete, so `path` never holds
+// a partial file written by this call (an older complete file stays until the rename).
 std::ofstream OpenForWriting(const std::string& path, const char* what) {
   const auto parent = std::filesystem::path(path).parent_path();
   std::error_code ec;
   if (!parent.empty()) std::filesystem::create_directories(parent, ec);
-  std::ofstream out(path);
+  errno = 0;
+  std::ofstream out(path + ".tmp");
   if (!out) {
-    throw InputError(std::string("cannot write ") + what + " file " + path +
-                     " (folder not writable?)");
+    throw InputError(std::string("cannot write ") + what + " file " + path + ".tmp (" +
+                     std::strerror(errno != 0 ? errno : EIO) + ")");
   }
   return out;
 }
 
 void FinishWriting(std::ofstream& out, const std::string& path) {
+  const std::string tmp = path + ".tmp";
+  errno = 0;
   out.flush();
-  if (!out) throw InputError("error while writing " + path + " (disk full?)");
+  out.close();
+  if (!out) {
+    const int error = errno != 0 ? errno : EIO;
+    std::remove(tmp.c_str());
+    throw InputError("error while writing " + path + " (" + std::strerror(error) + ")");
+  }
+  if (std::rename(tmp.c_str(), path.c_str()) != 0) {
+    const int error = errno;
+    std::remove(tmp.c_str());
+    throw InputError("cannot write " + path + ": renaming " + tmp + " onto it failed (" +
+                     std::strerror(error) + ")");
+  }
 }
 
 // Splits a line into whitespace-separated tokens. Returns false for blank and '#' lines.
@@ -260,36 +277,40 @@ std::vector<int64_t> ReadTimestamps(const std::string& path) {
   return stamps;
 }
 
+std::string KittiTrajectoryLine(const SE3d& world_from_cam) {
+  const Matrix3x4d m = world_from_cam.Matrix3x4Form();
+  std::string line;
+  for (int k = 0; k < 12; ++k) {
+    if (k > 0) line.push_back(' ');
+    line += FormatDouble(m(k / 4, k % 4));
+  }
+  line.push_back('\n');
+  return line;
+}
+
+std::string TumTrajectoryLine(int64_t timestamp_ns, const SE3d& world_from_cam) {
+  const Eigen::Vector3d& t = world_from_cam.translation();
+  const Eigen::Quaterniond& q = world_from_cam.quaternion();
+  std::string line = FormatNsAsSeconds(timestamp_ns);
+  for (double v : {t.x(), t.y(), t.z(), q.x(), q.y(), q.z(), q.w()}) {
+    line.push_back(' ');
+    line += FormatDouble(v);
+  }
+  line.push_back('\n');
+  return line;
+}
+
 void WriteKittiTrajectory(const std::string& path, const Trajectory& trajectory) {
   std::ofstream out = OpenForWriting(path, "KITTI trajectory");
-  std::string line;
-  for (const auto& pose : trajectory) {
-    const Matrix3x4d m = pose.world_from_cam.Matrix3x4Form();
-    line.clear();
-    for (int k = 0; k < 12; ++k) {
-      if (k > 0) line.push_back(' ');
-      line += FormatDouble(m(k / 4, k % 4));
-    }
-    line.push_back('\n');
-    out << line;
-  }
+  for (const auto& pose : trajectory) out << KittiTrajectoryLine(pose.world_from_cam);
   FinishWriting(out, path);
 }
 
 void WriteTumTrajectory(const std::string& path, const Trajectory& trajectory) {
   std::ofstream out = OpenForWriting(path, "TUM trajectory");
-  out << "# timestamp tx ty tz qx qy qz qw\n";
-  std::string line;
+  out << kTumTrajectoryHeader;
   for (const auto& pose : trajectory) {
-    const Eigen::Vector3d& t = pose.world_from_cam.translation();
-    const Eigen::Quaterniond& q = pose.world_from_cam.quaternion();
-    line = FormatNsAsSeconds(pose.timestamp_ns);
-    for (double v : {t.x(), t.y(), t.z(), q.x(), q.y(), q.z(), q.w()}) {
-      line.push_back(' ');
-      line += FormatDouble(v);
-    }
-    line.push_back('\n');
-    out << line;
+    out << TumTrajectoryLine(pose.timestamp_ns, pose.world_from_cam);
   }
   FinishWriting(out, path);
 }

@@ -54,13 +54,21 @@ Trajectory ReadTrajectory(const std::string& path, TrajectoryFormat format);
 std::vector<int64_t> ReadTimestamps(const std::string& path);
 
 // Writes a KITTI pose file (timestamps are not stored). Numbers are written with the fewest
-// digits that read back to the same double. Creates missing parent folders; throws InputError
-// when the file cannot be written.
+// digits that read back to the same double. Creates missing parent folders. The file is written
+// as "<path>.tmp" and renamed onto `path` when complete, so `path` never holds a partial write;
+// throws InputError naming the file and the system's reason (errno) when it cannot be written.
 void WriteKittiTrajectory(const std::string& path, const Trajectory& trajectory);
 
 // Writes a TUM trajectory file: timestamps in seconds with exact nanoseconds, positions and
-// quaternions with round-trip precision, a '#' header line. Creates missing parent folders.
+// quaternions with round-trip precision, a '#' header line. Creates missing parent folders;
+// written and renamed as WriteKittiTrajectory.
 void WriteTumTrajectory(const std::string& path, const Trajectory& trajectory);
+
+// One line of each file format (with its '\n'), for files written a frame at a time, and the TUM
+// header line.
+std::string KittiTrajectoryLine(const SE3d& world_from_cam);
+std::string TumTrajectoryLine(int64_t timestamp_ns, const SE3d& world_from_cam);
+inline constexpr char kTumTrajectoryHeader[] = "# timestamp tx ty tz qx qy qz qw\n";
 
 // Writes either format.
 void WriteTrajectory(const std::string& path, const Trajectory& trajectory,

@@ -1,8 +1,13 @@
 #include "apps/common/sequence_runner.h"
 
+#include <unistd.h>
+
+#include <cerrno>
 #include <chrono>
 #include <cmath>
+#include <csignal>
 #include <cstdio>
+#include <cstring>
 #include <exception>
 #include <filesystem>
 #include <fstream>
@@ -22,12 +27,45 @@ namespace {
 
 namespace fs = std::filesystem;
 
+// Writes `text` to "<path>.tmp" and renames it onto `path`: `path` is never half-written.
 void WriteTextFile(const std::string& path, const std::string& text) {
-  std::ofstream file(path);
-  if (!file) throw InputError("cannot write " + path);
-  file << text;
-  if (!file) throw InputError("error while writing " + path);
+  const std::string tmp = path + ".tmp";
+  std::FILE* file = std::fopen(tmp.c_str(), "wb");
+  if (file == nullptr) {
+    throw InputError("cannot write " + path + " (" + std::strerror(errno) + ")");
+  }
+  const bool written = std::fwrite(text.data(), 1, text.size(), file) == text.size();
+  const int write_error = errno;
+  const bool closed = std::fclose(file) == 0;
+  if (!written || !closed) {
+    const int error = !written ? write_error : errno;
+    std::remove(tmp.c_str());
+    throw InputError("error while writing " + path + " (" + std::strerror(error) + ")");
+  }
+  if (std::rename(tmp.c_str(), path.c_str()) != 0) {
+    const int error = errno;
+    std::remove(tmp.c_str());
+    throw InputError("cannot write " + path + ": renaming " + tmp + " onto it failed (" +
+                     std::strerror(error) + ")");
+  }
 }
+
+}  // namespace
+
+const char* SignalName(int signal) {
+  switch (signal) {
+    case SIGINT:
+      return "SIGINT";
+    case SIGTERM:
+      return "SIGTERM";
+    case SIGHUP:
+      return "SIGHUP";
+    default:
+      return "signal";
+  }
+}
+
+namespace {
 
 std::string Csv(double v, int decimals) {
   if (!std::isfinite(v)) return "nan";
@@ -106,6 +144,10 @@ SequenceRunResult RunSequence(const FrameProvider& provider, Odometry* odometry,
            std::to_string(result.keyframes.size());
   };
   for (size_t i = 0; i < provider.size(); ++i) {
+    if (options.stop_signal != nullptr && options.stop_signal->load() != 0) {
+      result.interrupted_signal = options.stop_signal->load();
+      break;
+    }
     // Any error ends the run here; what was computed so far is kept (and written by the caller).
     try {
       const auto frame_start = std::chrono::steady_clock::now();
@@ -361,31 +403,106 @@ io::JsonValue MakeRunSummary(const SequenceRunResult& result, const RunEvaluatio
     s.Set("openmp_wait_policy", wait_policy);
   }
   if (!result.error.empty()) s.Set("error", result.error);
+  if (result.interrupted_signal != 0) {
+    io::JsonValue interrupted = io::JsonValue::Object();
+    interrupted.Set("signal", SignalName(result.interrupted_signal));
+    interrupted.Set("frame", static_cast<int64_t>(result.frames.size()));
+    s.Set("interrupted", std::move(interrupted));
+  }
   return s;
 }
 
-void WriteFramesCsv(const std::string& path, const SequenceRunResult& result) {
-  std::string text =
-      "index,timestamp_s,status,reference_index,new_reference,num_points,num_inliers,rmse,"
-      "iterations,keyframe,keyframe_reason,load_ms,features_ms,depth_ms,tracking_ms,backend_ms,"
-      "total_ms,tracking_depth,keyframe_depth_scale\n";
-  for (const FrameRecord& f : result.frames) {
-    const TrackedFrame& t = f.tracked;
-    const std::string reason = !f.keyframe ? ""
-                                           : (f.keyframe_reason == KeyframeReason::kNone
-                                                  ? "frontend"
-                                                  : KeyframeReasonName(f.keyframe_reason));
-    text += std::to_string(t.index) + "," + io::FormatNsAsSeconds(t.timestamp_ns) + "," +
-            TrackingStatusName(t.status) + "," + std::to_string(t.reference_index) + "," +
-            (t.is_new_reference ? "1" : "0") + "," + std::to_string(t.num_points) + "," +
-            std::to_string(t.num_inliers) + "," + Csv(t.rmse, 6) + "," +
-            std::to_string(t.iterations) + "," + (f.keyframe ? "1" : "0") + "," + reason + "," +
-            Csv(f.load_ms, 3) + "," + Csv(f.features_ms, 3) + "," + Csv(f.depth_ms, 3) + "," +
-            Csv(f.tracking_ms, 3) + "," + Csv(f.backend_ms, 3) + "," + Csv(f.total_ms, 3) + "," +
-            f.tracking_depth + "," +
-            (f.keyframe_depth_scale > 0.0 ? Csv(f.keyframe_depth_scale, 6) : std::string()) + "\n";
+std::vector<std::string> RemoveRunOutputs(const std::string& output_dir) {
+  std::vector<std::string> removed;
+  for (const char* name :
+       {"frontend_kitti.txt", "frontend_tum.txt", "windowed_kitti.txt", "windowed_tum.txt",
+        "keyframes_tum.txt", "frames.csv", "summary.json", "frontend_trajectory.png",
+        "windowed_trajectory.png", "comparison_trajectory.png"}) {
+    for (const std::string& file : {std::string(name), std::string(name) + ".tmp"}) {
+      std::error_code ec;
+      const fs::path p = fs::path(output_dir) / file;
+      if (fs::is_regular_file(p, ec) && fs::remove(p, ec)) removed.push_back(file);
+    }
   }
+  return removed;
+}
+
+std::string FramesCsvHeader() {
+  return "index,timestamp_s,status,reference_index,new_reference,num_points,num_inliers,rmse,"
+         "iterations,keyframe,keyframe_reason,load_ms,features_ms,depth_ms,tracking_ms,backend_ms,"
+         "total_ms,tracking_depth,keyframe_depth_scale\n";
+}
+
+std::string FramesCsvLine(const FrameRecord& f) {
+  const TrackedFrame& t = f.tracked;
+  const std::string reason = !f.keyframe ? ""
+                                         : (f.keyframe_reason == KeyframeReason::kNone
+                                                ? "frontend"
+                                                : KeyframeReasonName(f.keyframe_reason));
+  return std::to_string(t.index) + "," + io::FormatNsAsSeconds(t.timestamp_ns) + "," +
+         TrackingStatusName(t.status) + "," + std::to_string(t.reference_index) + "," +
+         (t.is_new_reference ? "1" : "0") + "," + std::to_string(t.num_points) + "," +
+         std::to_string(t.num_inliers) + "," + Csv(t.rmse, 6) + "," + std::to_string(t.iterations) +
+         "," + (f.keyframe ? "1" : "0") + "," + reason + "," + Csv(f.load_ms, 3) + "," +
+         Csv(f.features_ms, 3) + "," + Csv(f.depth_ms, 3) + "," + Csv(f.tracking_ms, 3) + "," +
+         Csv(f.backend_ms, 3) + "," + Csv(f.total_ms, 3) + "," + f.tracking_depth + "," +
+         (f.keyframe_depth_scale > 0.0 ? Csv(f.keyframe_depth_scale, 6) : std::string()) + "\n";
+}
+
+void WriteFramesCsv(const std::string& path, const SequenceRunResult& result) {
+  std::string text = FramesCsvHeader();
+  for (const FrameRecord& f : result.frames) text += FramesCsvLine(f);
   WriteTextFile(path, text);
+}
+
+LiveRunFiles::LiveRunFiles(const std::string& output_dir, bool frontend, double sync_interval_s)
+    : sync_interval_s_(sync_interval_s), last_sync_(std::chrono::steady_clock::now()) {
+  const auto open = [&](File* f, const char* name, const std::string& header) {
+    f->path = (fs::path(output_dir) / name).string();
+    f->file = std::fopen(f->path.c_str(), "wb");
+    if (f->file == nullptr) {
+      problems_.push_back(f->path + ": cannot write it as the run goes (" + std::strerror(errno) +
+                          ")");
+      return;
+    }
+    Write(f, header);
+  };
+  open(&frames_csv_, "frames.csv", FramesCsvHeader());
+  if (frontend) {
+    open(&kitti_, "frontend_kitti.txt", "");
+    open(&tum_, "frontend_tum.txt", io::kTumTrajectoryHeader);
+  }
+}
+
+LiveRunFiles::~LiveRunFiles() {
+  for (File* f : {&frames_csv_, &kitti_, &tum_}) {
+    if (f->file != nullptr) std::fclose(f->file);
+  }
+}
+
+void LiveRunFiles::Write(File* f, const std::string& text) {
+  if (f->file == nullptr) return;
+  if (std::fwrite(text.data(), 1, text.size(), f->file) != text.size() ||
+      std::fflush(f->file) != 0) {
+    // This file is given up for the rest of the run; the run goes on.
+    problems_.push_back(f->path + ": writing it as the run goes failed (" + std::strerror(errno) +
+                        ")");
+    std::fclose(f->file);
+    f->file = nullptr;
+  }
+}
+
+void LiveRunFiles::Append(const FrameRecord& frame, const SE3d& frontend_world_from_cam) {
+  Write(&frames_csv_, FramesCsvLine(frame));
+  Write(&kitti_, io::KittiTrajectoryLine(frontend_world_from_cam));
+  Write(&tum_, io::TumTrajectoryLine(frame.tracked.timestamp_ns, frontend_world_from_cam));
+  const auto now = std::chrono::steady_clock::now();
+  if (std::chrono::duration<double>(now - last_sync_).count() >= sync_interval_s_) {
+    last_sync_ = now;
+    for (File* f : {&frames_csv_, &kitti_, &tum_}) {
+      if (f->file != nullptr) fsync(fileno(f->file));
+    }
+  }
 }
 
 RunOutputs WriteRunOutputs(const SequenceRunResult& result, const std::string& output_dir,
@@ -397,30 +514,39 @@ RunOutputs WriteRunOutputs(const SequenceRunResult& result, const std::string& o
     throw InputError("cannot create output folder " + output_dir);
   }
   const auto path = [&](const char* name) { return (fs::path(output_dir) / name).string(); };
+  // Each file on its own: one that cannot be written is reported, the others are still written.
+  const auto write = [&](const std::string& file, const std::function<void()>& body) {
+    try {
+      body();
+      out.files.push_back(file);
+    } catch (const std::exception& e) {
+      out.incomplete.push_back(file + ": " + e.what());
+    }
+  };
 
   // Every processed frame gets a pose line, lost ones included (their pose is the last good one):
   // users ask for the poses of every frame, and the gap stays visible in frames.csv.
   const Trajectory estimate = result.Estimate();
   const Trajectory windowed = result.WindowedEstimate();
   if (result.has_frontend()) {
-    io::WriteKittiTrajectory(path("frontend_kitti.txt"), estimate);
-    out.files.push_back(path("frontend_kitti.txt"));
-    io::WriteTumTrajectory(path("frontend_tum.txt"), estimate);
-    out.files.push_back(path("frontend_tum.txt"));
+    write(path("frontend_kitti.txt"),
+          [&] { io::WriteKittiTrajectory(path("frontend_kitti.txt"), estimate); });
+    write(path("frontend_tum.txt"),
+          [&] { io::WriteTumTrajectory(path("frontend_tum.txt"), estimate); });
   }
   if (result.has_windowed()) {
-    io::WriteKittiTrajectory(path("windowed_kitti.txt"), windowed);
-    out.files.push_back(path("windowed_kitti.txt"));
-    io::WriteTumTrajectory(path("windowed_tum.txt"), windowed);
-    out.files.push_back(path("windowed_tum.txt"));
+    write(path("windowed_kitti.txt"),
+          [&] { io::WriteKittiTrajectory(path("windowed_kitti.txt"), windowed); });
+    write(path("windowed_tum.txt"),
+          [&] { io::WriteTumTrajectory(path("windowed_tum.txt"), windowed); });
   }
   if (result.poses.num_frames() == static_cast<int>(result.frames.size())) {
-    io::WriteTumTrajectory(path("keyframes_tum.txt"),
-                           result.poses.KeyframeTrajectory(result.has_windowed()));
-    out.files.push_back(path("keyframes_tum.txt"));
+    write(path("keyframes_tum.txt"), [&] {
+      io::WriteTumTrajectory(path("keyframes_tum.txt"),
+                             result.poses.KeyframeTrajectory(result.has_windowed()));
+    });
   }
-  WriteFramesCsv(path("frames.csv"), result);
-  out.files.push_back(path("frames.csv"));
+  write(path("frames.csv"), [&] { WriteFramesCsv(path("frames.csv"), result); });
 
   const size_t lost = static_cast<size_t>(result.CountStatus(TrackingStatus::kLost));
   const std::string counts = " (" + std::to_string(result.frames.size()) + " frames, " +
@@ -435,9 +561,11 @@ RunOutputs WriteRunOutputs(const SequenceRunResult& result, const std::string& o
     options.text_lines = EvaluationPlotLines(e);
     options.text_lines.insert(options.text_lines.begin(), counts.substr(2, counts.size() - 3));
     const std::string p = path(file);
-    io::WriteTrajectoryPlot(p, e.ground_truth, e.alignment.aligned_estimate, e.ate.errors, options);
-    out.files.push_back(p);
-    if (out.plot_path.empty()) out.plot_path = p;
+    write(p, [&] {
+      io::WriteTrajectoryPlot(p, e.ground_truth, e.alignment.aligned_estimate, e.ate.errors,
+                              options);
+      if (out.plot_path.empty()) out.plot_path = p;
+    });
   };
   if (plot && result.has_frontend() && out.evaluation.available) {
     single_plot(out.evaluation, "frontend", "frontend_trajectory.png");
@@ -458,17 +586,23 @@ RunOutputs WriteRunOutputs(const SequenceRunResult& result, const std::string& o
             FormatFixed(out.windowed_evaluation.sim3.ate.stats.rmse, 4) + " m, RPE " +
             FormatFixed(out.windowed_evaluation.sim3.rpe.translation.rmse, 4) + " m"};
     const std::string p = path("comparison_trajectory.png");
-    io::WriteTrajectoriesPlot(
-        p, out.evaluation.sim3.ground_truth,
-        {{"frontend-only (Sim3-aligned)", out.evaluation.sim3.alignment.aligned_estimate},
-         {"windowed (Sim3-aligned)", out.windowed_evaluation.sim3.alignment.aligned_estimate}},
-        options);
-    out.files.push_back(p);
-    out.plot_path = p;
+    write(p, [&] {
+      io::WriteTrajectoriesPlot(
+          p, out.evaluation.sim3.ground_truth,
+          {{"frontend-only (Sim3-aligned)", out.evaluation.sim3.alignment.aligned_estimate},
+           {"windowed (Sim3-aligned)", out.windowed_evaluation.sim3.alignment.aligned_estimate}},
+          options);
+      out.plot_path = p;
+    });
   }
   out.summary = MakeRunSummary(result, out.evaluation, &out.windowed_evaluation);
-  WriteTextFile(path("summary.json"), out.summary.Dump(2) + "\n");
-  out.files.push_back(path("summary.json"));
+  if (!out.incomplete.empty()) {
+    io::JsonValue incomplete = io::JsonValue::Array();
+    for (const std::string& what : out.incomplete) incomplete.Push(what);
+    out.summary.Set("incomplete_files", std::move(incomplete));
+  }
+  write(path("summary.json"),
+        [&] { WriteTextFile(path("summary.json"), out.summary.Dump(2) + "\n"); });
   return out;
 }
 

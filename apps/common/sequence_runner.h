@@ -39,6 +39,8 @@
 #ifndef DFO_APPS_COMMON_SEQUENCE_RUNNER_H_
 #define DFO_APPS_COMMON_SEQUENCE_RUNNER_H_
 
+#include <atomic>
+#include <chrono>
 #include <cstdio>
 #include <functional>
 #include <optional>
@@ -102,12 +104,15 @@ struct SequenceRunOptions {
   // done, with its record (already result.frames.back()), the result so far and the system (its
   // poses() are current), e.g. to stream poses over LCM. An exception thrown here ends the run
   // like a bad frame.
-  std::function<void(const FrameRecord&, const SequenceRunResult&, const Odometry&)>
-      frame_observer;
+  std::function<void(const FrameRecord&, const SequenceRunResult&, const Odometry&)> frame_observer;
   // Called once after the last frame when a window solve still running on the backend thread
   // was applied then (Odometry::Flush), with its keyframe's record (already in result.keyframes).
   std::function<void(const KeyframeRecord&, const SequenceRunResult&, const Odometry&)>
       solve_observer;
+  // When set (not owned), checked before each frame: a non-zero value (a signal number, e.g. set
+  // by a SIGINT handler) ends the run there; SequenceRunResult::interrupted_signal records it and
+  // everything computed so far is kept, as after an error.
+  const std::atomic<int>* stop_signal = nullptr;
 };
 
 // One processed frame.
@@ -143,6 +148,7 @@ struct SequenceRunResult {
   size_t frames_in_sequence = 0;    // frames the provider offered
   std::vector<FrameRecord> frames;  // frames processed, in order (all of them unless error)
   std::string error;                // what stopped the run early; "" when every frame ran
+  int interrupted_signal = 0;       // the SequenceRunOptions::stop_signal that ended it, or 0
   double wall_s = 0.0;              // wall time of the loop (loading included)
   RunMode mode = RunMode::kFrontend;
   TrajectoryStore poses;                  // every processed frame, relative to its keyframe
@@ -220,19 +226,68 @@ io::JsonValue MakeRunSummary(const SequenceRunResult& result, const RunEvaluatio
 // Paths written by WriteRunOutputs, and the summary.
 struct RunOutputs {
   std::vector<std::string> files;  // every file written, in order
-  std::string plot_path;           // "" when no plot was written
+  // Files that could not be written completely, with the reason ("<path>: <message>"); also in
+  // summary.json "incomplete_files". The other files are written regardless.
+  std::vector<std::string> incomplete;
+  std::string plot_path;  // "" when no plot was written
   io::JsonValue summary;
   RunEvaluation evaluation;           // frontend-only (not evaluated in mode windowed)
   RunEvaluation windowed_evaluation;  // windowed (modes windowed and both)
 };
 
-// Writes the files of the header comment into `output_dir` (created). Throws InputError when a
-// file cannot be written.
+// Writes the files of the header comment into `output_dir` (created), each independently: a file
+// that cannot be written is listed in RunOutputs::incomplete (and summary.json
+// "incomplete_files"), the others are still written. Each file is written under a temporary
+// name and renamed when complete (summary.json is never half-written). Throws InputError only
+// when the folder cannot be created.
 RunOutputs WriteRunOutputs(const SequenceRunResult& result, const std::string& output_dir,
                            bool plot = true);
 
+// "SIGINT", "SIGTERM", "SIGHUP", else "signal".
+const char* SignalName(int signal);
+
+// Removes the files WriteRunOutputs writes (every mode's, and their ".tmp" names) from
+// `output_dir`, so that a reused folder holds no stale file of an earlier run; nothing else is
+// touched. Returns the names removed.
+std::vector<std::string> RemoveRunOutputs(const std::string& output_dir);
+
 // Writes frames.csv (columns in the header comment) to `path`.
 void WriteFramesCsv(const std::string& path, const SequenceRunResult& result);
+// frames.csv's header line and one frame's line (each with its '\n').
+std::string FramesCsvHeader();
+std::string FramesCsvLine(const FrameRecord& frame);
+
+// The per-frame files of a run written as it goes, so that a run killed (SIGKILL, power loss)
+// leaves every frame up to the last few: frames.csv and, for runs with a frontend-only output,
+// frontend_kitti.txt and frontend_tum.txt (a frame's frontend pose is final when it is tracked;
+// windowed poses change with later solves and are written at the end only). Lines are flushed to
+// the OS after every frame and synced to the disk at most every `sync_interval_s`.
+// WriteRunOutputs later replaces these files by their complete versions.
+class LiveRunFiles {
+ public:
+  // Creates (truncates) the files in `output_dir`. Never throws: a file that cannot be created
+  // or written is given up (the run goes on; WriteRunOutputs still writes it at the end) and
+  // the reason is kept in problems().
+  LiveRunFiles(const std::string& output_dir, bool frontend, double sync_interval_s = 2.0);
+  ~LiveRunFiles();
+  LiveRunFiles(const LiveRunFiles&) = delete;
+  LiveRunFiles& operator=(const LiveRunFiles&) = delete;
+  // Appends `frame` with its frontend pose.
+  void Append(const FrameRecord& frame, const SE3d& frontend_world_from_cam);
+  // "<path>: <reason>" for each file given up.
+  const std::vector<std::string>& problems() const { return problems_; }
+
+ private:
+  struct File {
+    std::string path;
+    std::FILE* file = nullptr;
+  };
+  void Write(File* file, const std::string& text);
+  File frames_csv_, kitti_, tum_;
+  double sync_interval_s_;
+  std::chrono::steady_clock::time_point last_sync_;
+  std::vector<std::string> problems_;
+};
 
 // A LoadedFrame as the frontend's Frame (images moved, not copied).
 Frame ToFrame(io::LoadedFrame loaded);

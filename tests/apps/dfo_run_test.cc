@@ -5,8 +5,10 @@
 #include <gtest/gtest.h>
 #include <sys/wait.h>
 
+#include <algorithm>
 #include <cmath>
 #include <cstdio>
+#include <cstdlib>
 #include <filesystem>
 #include <fstream>
 #include <iostream>
@@ -14,6 +16,7 @@
 #include <sstream>
 #include <stdexcept>
 #include <string>
+#include <tuple>
 #include <vector>
 
 #include "apps/common/sequence_runner.h"
@@ -318,6 +321,117 @@ TEST(DfoRun, StartsOpenMpWithPassiveWaitUnlessTheUserChoseAnother) {
                                           args + " --output " + out + "/chosen");
   ASSERT_EQ(chosen.status, 0) << chosen.err;
   EXPECT_EQ(ReadSummary(out + "/chosen")["openmp_wait_policy"].AsString(), "ACTIVE");
+}
+
+// A longer sequence (150 frames, several seconds of work) for runs that are stopped half-way.
+std::string MakeLongSequence() {
+  static std::string base;
+  if (base.empty()) {
+    base = test::MakeTempDir("dfo_run_long");
+    const CommandResult r =
+        RunCommand(DFO_SYNTH_EXE, "--output " + base + " --frames 150 --seed 1");
+    if (r.status != 0) throw std::runtime_error("dfo_synth failed: " + r.err);
+  }
+  return base;
+}
+
+// Starts dfo_run on the long sequence in the background, waits until frames.csv holds `frames`
+// frame lines, sends `signal`, and returns the exit status.
+int RunAndSignal(const std::string& out, const char* signal, int frames) {
+  const std::string command = std::string(DFO_RUN_EXE) + " --config " + test::SourceDir() +
+                              "/configs/demo.yaml --set dataset.path=" + MakeLongSequence() +
+                              " --set run.progress=none --output " + out + " > " + out +
+                              ".log 2>&1 & p=$!; i=0; " + "while [ \"$(cat " + out +
+                              "/frames.csv 2>/dev/null | wc -l)\" -le " + std::to_string(frames) +
+                              " ] && [ $i -lt 3000 ]; do sleep 0.02; i=$((i+1)); done; kill -" +
+                              signal + " $p; wait $p; echo $?";
+  const CommandResult r = RunCommand("sh", "-c '" + command + "'");
+  return std::atoi(r.out.c_str());
+}
+
+size_t FileLines(const std::string& path) { return CountLines(ReadFile(path)); }
+
+TEST(DfoRunInterrupted, SigintAndSigtermWriteEveryOutputAndSaySo) {
+  const std::string dir = test::MakeTempDir("dfo_run_sigint");
+  for (const auto& [signal, name, status] :
+       {std::make_tuple("INT", "SIGINT", 130), std::make_tuple("TERM", "SIGTERM", 143)}) {
+    const std::string out = dir + "/" + name;
+    EXPECT_EQ(RunAndSignal(out, signal, 5), status) << ReadFile(out + ".log");
+    const io::JsonValue summary = ReadSummary(out);
+    ASSERT_TRUE(summary.Has("interrupted")) << ReadFile(out + ".log");
+    EXPECT_EQ(summary["interrupted"]["signal"].AsString(), name);
+    const int64_t frames = summary["frames"].AsInt();
+    EXPECT_EQ(summary["interrupted"]["frame"].AsInt(), frames);
+    EXPECT_GE(frames, 5);
+    EXPECT_LT(frames, 150);
+    // Every output of the frames processed, complete.
+    EXPECT_EQ(FileLines(out + "/frontend_kitti.txt"), static_cast<size_t>(frames));
+    EXPECT_EQ(FileLines(out + "/windowed_kitti.txt"), static_cast<size_t>(frames));
+    EXPECT_EQ(FileLines(out + "/frames.csv"), static_cast<size_t>(frames) + 1);
+    EXPECT_TRUE(fs::exists(out + "/windowed_trajectory.png"));
+    EXPECT_NE(ReadFile(out + ".log").find(std::string("interrupted by ") + name),
+              std::string::npos);
+  }
+}
+
+TEST(DfoRunInterrupted, SigkillLeavesThePerFrameFilesUpToTheLastFrames) {
+  const std::string out = test::MakeTempDir("dfo_run_sigkill") + "/run";
+  EXPECT_EQ(RunAndSignal(out, "KILL", 20), 137);
+  EXPECT_FALSE(fs::exists(out + "/summary.json"));  // a summary is never half-written
+  // frames.csv (header + one line a frame) and the frontend poses, written as the run went.
+  const size_t rows = FileLines(out + "/frames.csv");
+  EXPECT_GE(rows, 21u);
+  const Trajectory kitti = io::ReadKittiTrajectory(out + "/frontend_kitti.txt");
+  const Trajectory tum = io::ReadTumTrajectory(out + "/frontend_tum.txt");
+  EXPECT_GE(kitti.size() + 1, rows - 1);  // the kill may fall between two files' lines
+  EXPECT_LE(kitti.size(), rows);
+  EXPECT_GE(tum.size() + 1, kitti.size());
+  for (size_t i = 0; i < std::min(kitti.size(), tum.size()); ++i) {
+    EXPECT_LT((kitti[i].world_from_cam.translation() - tum[i].world_from_cam.translation()).norm(),
+              1e-9);
+  }
+}
+
+TEST(DfoRunInterrupted, ClosedStdoutDoesNotStopTheRun) {
+  const std::string root = MakeSequence("dfo_run_pipe");
+  const std::string out = test::MakeTempDir("dfo_run_pipe_out") + "/run";
+  const CommandResult r = RunCommand(
+      "sh", "-c '" + std::string(DFO_RUN_EXE) + " " + RunArgs(root, out) + " | head -c 1'");
+  EXPECT_EQ(ReadSummary(out)["frames"].AsInt(), kFrames);
+  EXPECT_EQ(FileLines(out + "/windowed_tum.txt"), static_cast<size_t>(kFrames) + 1);
+}
+
+TEST(DfoRunBadOutput, AnOutputThatCannotBeWrittenLosesNoOtherAndIsNamed) {
+  const std::string root = MakeSequence("dfo_run_badout");
+  const std::string out = test::MakeTempDir("dfo_run_badout_out") + "/run";
+  fs::create_directories(out + "/frontend_kitti.txt");  // a folder where a file must go
+  const CommandResult r = RunDfoRun(RunArgs(root, out));
+  EXPECT_EQ(r.status, 1) << r.err;
+  EXPECT_NE(r.err.find(out + "/frontend_kitti.txt"), std::string::npos) << r.err;
+  EXPECT_NE(r.err.find("Is a directory"), std::string::npos) << r.err;
+  const io::JsonValue summary = ReadSummary(out);
+  ASSERT_EQ(summary["incomplete_files"].size(), 1u);
+  EXPECT_NE(summary["incomplete_files"][0].AsString().find("frontend_kitti.txt"),
+            std::string::npos);
+  for (const char* kept :
+       {"frontend_tum.txt", "windowed_kitti.txt", "frames.csv", "comparison_trajectory.png"}) {
+    EXPECT_TRUE(fs::is_regular_file(out + "/" + kept)) << kept;
+  }
+}
+
+TEST(DfoRun, AReusedFolderKeepsNoOutputOfAnEarlierRun) {
+  const std::string root = MakeSequence("dfo_run_reuse");
+  const std::string out = test::MakeTempDir("dfo_run_reuse_out") + "/run";
+  ASSERT_EQ(RunDfoRun(RunArgs(root, out)).status, 0);
+  EXPECT_TRUE(fs::exists(out + "/windowed_kitti.txt"));
+  std::ofstream(out + "/notes.txt") << "mine";
+  const CommandResult again = RunDfoRun(RunArgs(root, out) + " --set run.mode=frontend");
+  ASSERT_EQ(again.status, 0) << again.err;
+  EXPECT_NE(again.out.find("removed"), std::string::npos) << again.out;
+  EXPECT_FALSE(fs::exists(out + "/windowed_kitti.txt"));
+  EXPECT_FALSE(fs::exists(out + "/comparison_trajectory.png"));
+  EXPECT_TRUE(fs::exists(out + "/frontend_kitti.txt"));
+  EXPECT_TRUE(fs::exists(out + "/notes.txt"));  // not an output of dfo_run: kept
 }
 
 TEST(DfoRunBadInput, DepthFullOfZerosIsLostNotACrash) {
