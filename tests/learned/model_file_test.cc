@@ -7,6 +7,7 @@
 
 #include <fstream>
 #include <functional>
+#include <limits>
 #include <map>
 #include <string>
 
@@ -226,6 +227,24 @@ TEST(ModelFileTest, WeightsThatDisagreeWithTheMetadata) {
   EXPECT_TRUE(Contains(msg, levels)) << msg;
   EXPECT_TRUE(Contains(msg, "parameter depth.")) << msg;
   EXPECT_TRUE(Contains(msg, "the file's metadata implies")) << msg;
+}
+
+TEST(ModelFileTest, NonFiniteWeightsAreRefusedNamingTheParameter) {
+  const std::string dir = test::MakeTempDir("model_nan");
+  const std::string path = dir + "/nan.dfo";
+  Networks nets(SmallOptions(), 5);
+  {
+    torch::NoGradGuard no_grad;
+    torch::Tensor w = nets->depth->named_parameters()[0].value();
+    w.view({-1})[0] = std::numeric_limits<float>::quiet_NaN();
+    w.view({-1})[1] = std::numeric_limits<float>::infinity();
+  }
+  SaveModel(path, *nets);
+  const std::string msg = InputErrorOf([&] { LoadModel(path); });
+  EXPECT_TRUE(Contains(msg, path)) << msg;
+  EXPECT_TRUE(Contains(msg, "parameter depth." + nets->depth->named_parameters()[0].key() +
+                                " holds 2 non-finite value(s)"))
+      << msg;
 }
 
 TEST(ModelFileTest, ModelThatDisagreesWithTheConfiguration) {

@@ -108,6 +108,12 @@ void LoadParameters(torch::nn::Module& module, const torch::jit::Module& stored,
       throw InputError(Prefix(path) + "parameter " + name + " has shape " + ShapeString(t.sizes()) +
                        "; the file's metadata implies " + ShapeString(item.value().sizes()));
     }
+    const int64_t non_finite = (~torch::isfinite(t)).sum().item<int64_t>();
+    if (non_finite > 0) {
+      throw InputError(Prefix(path) + "parameter " + name + " holds " + std::to_string(non_finite) +
+                       " non-finite value(s) (NaN or inf) of " + std::to_string(t.numel()) +
+                       "; the file is unusable (a diverged training?)");
+    }
     torch::NoGradGuard no_grad;
     item.value().copy_(t.to(torch::kFloat32));
   }
