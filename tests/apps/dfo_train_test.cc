@@ -12,6 +12,8 @@
 #include <string>
 #include <vector>
 
+#include "dfo_io/json.h"
+#include "tests/support/measured_figures.h"
 #include "tests/support/test_support.h"
 
 #if defined(DFO_TRAIN_EXE) && defined(DFO_SYNTH_EXE) && defined(DFO_EVAL_EXE)
@@ -170,6 +172,28 @@ TEST_F(DfoTrainAppTest, SigtermLeavesACheckpointAndResumeContinuesTheCurve) {
                                               "/sequences/00 --model " + out + "/run/losses.csv"));
   EXPECT_EQ(bad_model.status, 1) << bad_model.out;
   EXPECT_NE(bad_model.out.find(out + "/run/losses.csv"), std::string::npos) << bad_model.out;
+}
+
+// The shipped default model is loaded and its held-out depth checked against the measured
+// figure (tests/support/measured_figures.h): a broken or worse model fails here.
+TEST(DefaultModel, KeepsItsHeldOutDepthAccuracy) {
+  const std::string dir = test::MakeTempDir("default_model_depth");
+  CommandResult r = Shell(std::string(DFO_SYNTH_EXE) + " --output " + dir +
+                          "/syn --sequence 01 --seed 1 --frames 20 --threads 1");
+  ASSERT_EQ(r.status, 0) << r.out;
+  r = Shell(std::string(DFO_TRAIN_EXE) + " --config " + test::SourceDir() +
+            "/configs/train_default.yaml --output " + dir + "/none --write-depth " + dir +
+            "/pred --sequence " + dir + "/syn/sequences/01 --model " + test::SourceDir() +
+            "/models/default.dfo");
+  ASSERT_EQ(r.status, 0) << r.out;
+  r = Shell(std::string(DFO_EVAL_EXE) + " depth --gt " + dir + "/syn/sequences/01/depth_0 --pred " +
+            dir + "/pred --median-scaling --json");
+  ASSERT_EQ(r.status, 0) << r.out;
+  const double abs_rel = io::ParseJson(r.out)["abs_rel"].AsNumber();
+  EXPECT_LE(abs_rel, test::kDefaultModelHeldOutAbsRelBound)
+      << "measured " << test::kDefaultModelHeldOutAbsRel << " when the model was committed";
+  EXPECT_GT(abs_rel, 0.5 * test::kDefaultModelHeldOutAbsRel)
+      << "better than measured: update tests/support/measured_figures.h";
 }
 
 TEST_F(DfoTrainAppTest, CommandLineMistakesAreNamed) {
