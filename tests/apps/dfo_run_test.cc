@@ -27,6 +27,7 @@
 #include "dfo_io/image_io.h"
 #include "dfo_io/json.h"
 #include "dfo_io/trajectory_io.h"
+#include "tests/support/measured_figures.h"
 #include "tests/support/test_support.h"
 
 namespace dfo {
@@ -432,6 +433,26 @@ TEST(DfoRun, AReusedFolderKeepsNoOutputOfAnEarlierRun) {
   EXPECT_FALSE(fs::exists(out + "/comparison_trajectory.png"));
   EXPECT_TRUE(fs::exists(out + "/frontend_kitti.txt"));
   EXPECT_TRUE(fs::exists(out + "/notes.txt"));  // not an output of dfo_run: kept
+}
+
+// The demo's accuracy as the README states it (tests/support/measured_figures.h).
+TEST(DfoRun, DemoKeepsItsMeasuredAccuracy) {
+  const std::string dir = test::MakeTempDir("dfo_run_demo_figures");
+  const CommandResult synth = RunCommand(DFO_SYNTH_EXE, "--output " + dir + "/synthetic");
+  ASSERT_EQ(synth.status, 0) << synth.err;
+  const CommandResult r =
+      RunDfoRun("--config " + test::SourceDir() + "/configs/demo.yaml --set dataset.path=" + dir +
+                "/synthetic --set run.progress=none --set run.plot=false --output " + dir + "/run");
+  ASSERT_EQ(r.status, 0) << r.err;
+  const io::JsonValue summary = ReadSummary(dir + "/run");
+  EXPECT_EQ(summary["frames_lost"].AsInt(), 0);
+  const double frontend = summary["frontend"]["ate_rmse"].AsNumber();
+  const double windowed = summary["windowed"]["ate_rmse"].AsNumber();
+  EXPECT_LE(frontend, test::kDemoFrontendAteBound) << "measured " << test::kDemoFrontendAte;
+  EXPECT_LE(windowed, test::kDemoWindowedAteBound) << "measured " << test::kDemoWindowedAte;
+  // Much better than measured means the figures in the README are stale: update them.
+  EXPECT_GT(frontend, 0.5 * test::kDemoFrontendAte);
+  EXPECT_GT(windowed, 0.5 * test::kDemoWindowedAte);
 }
 
 TEST(DfoRunBadInput, DepthFullOfZerosIsLostNotACrash) {
