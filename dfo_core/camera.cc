@@ -21,6 +21,14 @@ bool PinholeCamera::IsValid(std::string* why) const {
     msg << "camera.width = " << width << " violates > 0";
   } else if (height <= 0) {
     msg << "camera.height = " << height << " violates > 0";
+  } else if (fx < 0.05 * width || fx > 100.0 * width) {
+    msg << "camera.fx = " << fx << " is impossible for an image " << width
+        << " pixels wide (expected 0.05 to 100 times the width)";
+  } else if (fy < 0.05 * height || fy > 100.0 * height) {
+    msg << "camera.fy = " << fy << " is impossible for an image " << height
+        << " pixels high (expected 0.05 to 100 times the height)";
+  } else if (fx / fy < 0.2 || fx / fy > 5.0) {
+    msg << "camera.fx / camera.fy = " << fx / fy << " violates [0.2, 5]";
   } else {
     return true;
   }

@@ -21,8 +21,11 @@ struct PinholeCamera {
   PinholeCamera(double fx_, double fy_, double cx_, double cy_, int width_, int height_)
       : fx(fx_), fy(fy_), cx(cx_), cy(cy_), width(width_), height(height_) {}
 
-  // Throws dfo::InputError naming the field, value and rule when the intrinsics are unusable
-  // (non-finite, non-positive focal length or size).
+  // Throws dfo::InputError naming the field, value and rule when the intrinsics are unusable:
+  // non-finite, a non-positive focal length or size, or physically impossible for a pinhole
+  // image: a focal length outside [0.05, 100] times the image side (fields of view from ~169 down
+  // to ~0.6 degrees) or fx / fy outside [0.2, 5]. (The loaders also check that the principal
+  // point lies in the image.)
   void Check() const;
   // Same test without throwing; the reason goes to *why when given.
   bool IsValid(std::string* why = nullptr) const;

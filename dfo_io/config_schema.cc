@@ -9,15 +9,22 @@ ConfigSchema BuildSchema() {
   // Defaults mirror DatasetOptions (dfo_io/dataset.h); a test checks that they agree.
   s.AddSection("dataset", "Input sequence: which recording to read and how to load its frames.");
   s.AddString("dataset.type", "kitti",
-              "Dataset layout: KITTI odometry, TUM RGB-D or an image folder")
-      .OneOf({"kitti", "tum", "folder"});
+              "Dataset layout: KITTI odometry, TUM RGB-D, an image folder or a video file")
+      .OneOf({"kitti", "tum", "folder", "video"});
   s.AddString("dataset.path", "",
               "Dataset root (KITTI: folder holding sequences/ and poses/; TUM: sequence folder; "
-              "folder: image folder with camera.yaml)");
+              "folder: image folder with camera.yaml; video: the video file, read with FFmpeg)");
+  s.AddString("dataset.camera", "",
+              "camera.yaml (intrinsics, size, lens model) of a folder, TUM sequence or video; \"\" "
+              "= camera.yaml in the folder (video: beside the video file); KITTI reads calib.txt "
+              "and takes none");
   s.AddString("dataset.sequence", "00", "KITTI sequence name (folder under sequences/)");
   s.AddInt("dataset.first", 0, "First frame used (index in the recording)").Min(0);
   s.AddInt("dataset.last", -1, "Last frame used, inclusive; -1 = the recording's last frame")
       .Min(-1);
+  s.AddInt("dataset.step", 1,
+           "Take every step-th frame from dataset.first up to dataset.last (1 = every frame)")
+      .Min(1);
   s.AddInt("dataset.image_width", 416, "Width of loaded images in pixels (intrinsics rescaled)")
       .GreaterThan(0);
   s.AddInt("dataset.image_height", 128, "Height of loaded images in pixels (intrinsics rescaled)")
@@ -397,9 +404,11 @@ DatasetOptions DatasetOptionsFromConfig(const Config& config) {
   DatasetOptions o;
   o.type = config.GetString("dataset.type");
   o.path = config.GetString("dataset.path");
+  o.camera = config.GetString("dataset.camera");
   o.sequence = config.GetString("dataset.sequence");
   o.first = config.GetInt("dataset.first");
   o.last = config.GetInt("dataset.last");
+  o.step = config.GetInt("dataset.step");
   o.image_width = config.GetInt("dataset.image_width");
   o.image_height = config.GetInt("dataset.image_height");
   o.keep_native = config.GetBool("dataset.keep_native");

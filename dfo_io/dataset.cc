@@ -10,19 +10,27 @@
 #include "dfo_io/folder_dataset.h"
 #include "dfo_io/image_io.h"
 #include "dfo_io/kitti_dataset.h"
+#include "dfo_io/lens.h"
 #include "dfo_io/tum_dataset.h"
+#include "dfo_io/video_dataset.h"
+#include "dfo_io/video_reader.h"
 
 namespace dfo::io {
 namespace fs = std::filesystem;
 
 void DatasetOptions::Check() const {
   const auto fail = [](const std::string& what) { throw ConfigError(what); };
-  if (type != "kitti" && type != "tum" && type != "folder") {
-    fail("dataset.type = '" + type + "' violates one of kitti|tum|folder");
+  if (type != "kitti" && type != "tum" && type != "folder" && type != "video") {
+    fail("dataset.type = '" + type + "' violates one of kitti|tum|folder|video");
   }
-  if (path.empty()) fail("dataset.path is empty: set it to the dataset's folder");
+  if (path.empty()) fail("dataset.path is empty: set it to the dataset's folder or video file");
   if (type == "kitti" && sequence.empty()) fail("dataset.sequence is empty (KITTI needs it)");
+  if (type == "kitti" && !camera.empty()) {
+    fail("dataset.camera = '" + camera +
+         "' violates empty for dataset.type kitti (KITTI's camera is its calib.txt)");
+  }
   if (first < 0) fail("dataset.first = " + std::to_string(first) + " violates >= 0");
+  if (step < 1) fail("dataset.step = " + std::to_string(step) + " violates >= 1");
   if (last < -1) fail("dataset.last = " + std::to_string(last) + " violates >= -1");
   if (last >= 0 && last < first) {
     fail("dataset.last = " + std::to_string(last) + " violates >= dataset.first (" +
@@ -50,15 +58,27 @@ void DatasetOptions::Check() const {
 }
 
 Sequence::Sequence(std::string name, std::vector<FrameInfo> frames, PinholeCamera native_camera,
-                   double depth_scale, DatasetOptions options)
+                   double depth_scale, DatasetOptions options,
+                   std::shared_ptr<const Undistorter> undistorter,
+                   std::shared_ptr<VideoReader> video)
     : name_(std::move(name)),
       frames_(std::move(frames)),
       native_camera_(native_camera),
       depth_scale_(depth_scale),
-      options_(std::move(options)) {
+      options_(std::move(options)),
+      undistorter_(std::move(undistorter)),
+      video_(std::move(video)) {
   DFO_CHECK(!frames_.empty()) << name_;
   DFO_CHECK(depth_scale_ > 0) << depth_scale_;
   native_camera_.Check();
+  if (undistorter_) {
+    DFO_CHECK(undistorter_->camera().width == native_camera_.width &&
+              undistorter_->camera().height == native_camera_.height)
+        << "undistortion maps for another image size than the native camera's";
+  }
+  for (const FrameInfo& f : frames_) {
+    DFO_CHECK(f.video_frame < 0 || video_) << "video frame " << f.video_frame << " without video";
+  }
 }
 
 const FrameInfo& Sequence::frame(size_t i) const {
@@ -114,18 +134,25 @@ ImageU8 Sequence::LoadNativeImage(size_t i) const {
   const FrameInfo& f = frame(i);
   ImageU8 image;
   try {
-    image = options_.color ? ReadRgb(f.image_path) : ReadGray(f.image_path);
+    if (f.video_frame >= 0) {
+      image = video_->ReadFrame(f.video_frame, options_.color);
+    } else {
+      image = options_.color ? ReadRgb(f.image_path) : ReadGray(f.image_path);
+    }
   } catch (const InputError& e) {
     throw InputError(FramePrefix(i) + e.what());
   }
   if (image.width() != native_camera_.width || image.height() != native_camera_.height) {
-    throw InputError(FramePrefix(i) + "images of different sizes in one sequence: " + f.image_path +
+    const std::string file = f.video_frame >= 0
+                                 ? f.image_path + " frame " + std::to_string(f.video_frame)
+                                 : f.image_path;
+    throw InputError(FramePrefix(i) + "images of different sizes in one sequence: " + file +
                      " is " + std::to_string(image.width()) + "x" + std::to_string(image.height()) +
                      ", expected " + std::to_string(native_camera_.width) + "x" +
                      std::to_string(native_camera_.height) + " (the size of " +
                      frames_.front().image_path + ")");
   }
-  return image;
+  return undistorter_ ? undistorter_->Apply(image) : image;
 }
 
 ImageU8 Sequence::LoadImage(size_t i) const {
@@ -148,6 +175,7 @@ ImageF Sequence::LoadDepth(size_t i) const {
                      ", expected the image size " + std::to_string(native_camera_.width) + "x" +
                      std::to_string(native_camera_.height));
   }
+  if (undistorter_) depth = undistorter_->ApplyDepth(depth);
   return ResizeDepth(depth, output_width(), output_height());
 }
 
@@ -165,6 +193,10 @@ LoadedFrame Sequence::Load(size_t i) const {
 void Sequence::Validate() const {
   for (size_t i = 0; i < frames_.size(); ++i) {
     const FrameInfo& f = frames_[i];
+    if (f.video_frame >= 0) {
+      LoadNativeImage(i);  // decodes the frame and checks its size
+      continue;
+    }
     int w = 0, h = 0;
     try {
       ReadImageSize(f.image_path, &w, &h);
@@ -199,6 +231,7 @@ Sequence OpenSequence(const DatasetOptions& options) {
   options.Check();
   if (options.type == "kitti") return OpenKittiSequence(options);
   if (options.type == "tum") return OpenTumSequence(options);
+  if (options.type == "video") return OpenVideoSequence(options);
   return OpenFolderSequence(options);
 }
 
@@ -258,8 +291,14 @@ std::vector<FrameInfo> SelectFrameRange(std::vector<FrameInfo> frames,
                      " is outside the recording's " + std::to_string(n) + " frames (0.." +
                      std::to_string(n - 1) + ")");
   }
-  for (int i = 0; i < n; ++i) frames[i].source_index = i;
-  return std::vector<FrameInfo>(frames.begin() + options.first, frames.begin() + last + 1);
+  DFO_CHECK(options.step >= 1) << options.step;
+  std::vector<FrameInfo> kept;
+  kept.reserve(static_cast<size_t>((last - options.first) / options.step + 1));
+  for (int i = options.first; i <= last; i += options.step) {
+    kept.push_back(std::move(frames[i]));
+    kept.back().source_index = i;
+  }
+  return kept;
 }
 
 void CheckCalibration(const PinholeCamera& camera, const std::string& what) {
@@ -273,6 +312,10 @@ void CheckCalibration(const PinholeCamera& camera, const std::string& what) {
         << ") lies outside the " << camera.width << "x" << camera.height << " image";
     throw InputError(msg.str());
   }
+}
+
+std::string CameraYamlPath(const DatasetOptions& options, const std::string& default_path) {
+  return options.camera.empty() ? default_path : options.camera;
 }
 
 std::vector<std::string> ListImageFiles(const std::string& folder) {

@@ -1,11 +1,15 @@
-// Image sequences from disk: KITTI odometry, TUM RGB-D and plain image folders, behind one
-// Sequence type.
+// Image sequences from disk: KITTI odometry, TUM RGB-D, plain image folders and video files,
+// behind one Sequence type.
 //
-// A Sequence is the list of frames of one recording (timestamp, image file, optional depth file,
-// optional ground-truth pose) plus the native camera. Frames are loaded on demand, resized to the
+// A Sequence is the list of frames of one recording (timestamp, image file or video frame,
+// optional depth file, optional ground-truth pose) plus the native camera. Frames are loaded on
+// demand, undistorted when the camera has a lens model (dfo_io/lens.h), then resized to the
 // requested resolution (default: the networks' 416 x 128) with the intrinsics rescaled to match
 // (PinholeCamera::Resized). Depth maps are resized without ever mixing invalid (0) pixels into
 // valid ones (ResizeDepth).
+//
+// Frame selection, for every type: frames dataset.first, first + step, first + 2 step, ... up to
+// dataset.last (inclusive), indices of the full recording (SelectFrameRange).
 //
 // Layouts (see also the per-format headers):
 //  - kitti:  <path>/sequences/<seq>/{image_0|image_2}/NNNNNN.png, calib.txt (rows "P0:".."P3:",
@@ -15,12 +19,15 @@
 //  - tum:    <path>/rgb.txt, depth.txt, groundtruth.txt ('#' comments), rgb/ depth/ images,
 //            optional camera.yaml; depth scale 5000 (see tum_dataset.h).
 //  - folder: <path>/camera.yaml plus image files sorted by name (see folder_dataset.h).
+//  - video:  <path> is a video file, its camera.yaml beside it (see video_dataset.h).
+// dataset.camera, when set, names the camera.yaml of a folder, TUM sequence or video instead.
 //
 // Every error about the data is a dfo::InputError naming the file and the line or frame index.
 #ifndef DFO_IO_DATASET_H_
 #define DFO_IO_DATASET_H_
 
 #include <cstdint>
+#include <memory>
 #include <optional>
 #include <string>
 #include <vector>
@@ -32,14 +39,21 @@
 
 namespace dfo::io {
 
+class Undistorter;  // dfo_io/lens.h
+class VideoReader;  // dfo_io/video_reader.h
+
 // What to open and how to load it. Mirrors the `dataset` section of the configuration
 // (DatasetOptionsFromConfig in dfo_io/config_schema.h).
 struct DatasetOptions {
-  std::string type = "kitti";   // kitti | tum | folder
-  std::string path;             // dataset root (see the layouts above); must be set
+  std::string type = "kitti";   // kitti | tum | folder | video
+  std::string path;             // dataset root or video file (see the layouts above); must be set
+  std::string camera;           // camera.yaml of folder, tum and video; "" = the default place
+                                // (<path>/camera.yaml; video: camera.yaml beside the file); must
+                                // be "" for kitti (calib.txt)
   std::string sequence = "00";  // KITTI sequence name (folder under sequences/); unused otherwise
   int first = 0;                // first frame used (index in the full recording), >= 0
   int last = -1;                // last frame used, inclusive; -1 = the recording's last frame
+  int step = 1;                 // take every step-th frame from first on, >= 1
   int image_width = 416;        // width of loaded images in pixels, > 0 (unless keep_native)
   int image_height = 128;       // height of loaded images in pixels, > 0 (unless keep_native)
   bool keep_native = false;     // true: load images at their native size, ignore width/height
@@ -60,9 +74,10 @@ struct DatasetOptions {
 // One frame of a sequence, as listed by the dataset (nothing loaded).
 struct FrameInfo {
   int64_t timestamp_ns = 0;
-  std::string image_path;
+  std::string image_path;  // image file, or the video file when video_frame >= 0
+  int video_frame = -1;    // frame number in the video file image_path; -1: an image file
   std::string depth_path;  // "" when this frame has no depth map
-  int source_index = 0;    // index in the full recording (before first/last), for messages
+  int source_index = 0;    // index in the full recording (before first/last/step), for messages
   std::optional<SE3d> world_from_cam;  // ground-truth pose of this camera, when known
 };
 
@@ -77,13 +92,19 @@ struct LoadedFrame {
 };
 
 // A recording: its frames, camera and loading options. Build it with OpenSequence (or the
-// per-format Open*Sequence functions); the constructor is for readers and tests.
+// per-format Open*Sequence functions); the constructor is for readers and tests. Copies share the
+// video reader (thread-safe) and the undistortion maps.
 class Sequence {
  public:
-  // `native_camera` describes the images on disk; `depth_scale` converts 16-bit depth PNG values
-  // to metres (metres = value / depth_scale). `frames` must be non-empty.
+  // `native_camera` describes the images on disk (for a lens with distortion: its fx, fy, cx, cy
+  // and size, which the undistorted images keep); `depth_scale` converts 16-bit depth PNG values
+  // to metres (metres = value / depth_scale). `frames` must be non-empty. `undistorter` (nullptr:
+  // none) undistorts every image and depth map before resizing; it must be for native_camera.
+  // `video` (nullptr: none) decodes the frames whose video_frame >= 0.
   Sequence(std::string name, std::vector<FrameInfo> frames, PinholeCamera native_camera,
-           double depth_scale, DatasetOptions options);
+           double depth_scale, DatasetOptions options,
+           std::shared_ptr<const Undistorter> undistorter = nullptr,
+           std::shared_ptr<VideoReader> video = nullptr);
 
   // Human-readable name used in messages, e.g. "KITTI 06" or the folder path.
   const std::string& name() const { return name_; }
@@ -92,8 +113,12 @@ class Sequence {
   const std::vector<FrameInfo>& frames() const { return frames_; }
   int64_t timestamp_ns(size_t i) const { return frame(i).timestamp_ns; }
 
-  // Intrinsics of the images on disk.
+  // Intrinsics of the images at native size (after undistortion, when the lens has a model).
   const PinholeCamera& native_camera() const { return native_camera_; }
+  // The lens undistortion applied to every frame; nullptr for rectified (pinhole) images.
+  const Undistorter* undistorter() const { return undistorter_.get(); }
+  // The video the frames are decoded from; nullptr for image files.
+  const VideoReader* video() const { return video_.get(); }
   // Intrinsics of loaded images (native camera resized to the output resolution).
   PinholeCamera camera() const;
   // Output resolution (native size when keep_native).
@@ -109,11 +134,12 @@ class Sequence {
   // All timestamps, in frame order.
   std::vector<int64_t> Timestamps() const;
 
-  // Image of frame i at the output resolution (gray or RGB by options().color). Throws
-  // InputError naming the frame and file when the image is missing, corrupt or of a size other
-  // than the native one ("images of different sizes in one sequence").
+  // Image of frame i at the output resolution (gray or RGB by options().color), undistorted.
+  // Throws InputError naming the frame and file (and the video frame) when the image is missing,
+  // corrupt or of a size other than the native one ("images of different sizes in one
+  // sequence"). Video frames read in increasing order cost one decode each (video_reader.h).
   ImageU8 LoadImage(size_t i) const;
-  // Image at native resolution (same checks).
+  // Image at native resolution, undistorted (same checks).
   ImageU8 LoadNativeImage(size_t i) const;
   // Depth of frame i in metres at the output resolution (0 = invalid); empty image when the
   // frame has no depth map. Throws InputError as LoadImage.
@@ -121,8 +147,8 @@ class Sequence {
   // Image, ground truth and (when options().depth) depth of frame i at the output resolution.
   LoadedFrame Load(size_t i) const;
 
-  // Reads every image (and depth map) once: all must exist, decode and have the native size.
-  // Throws InputError on the first offending frame.
+  // Reads every image (and depth map) once: all must exist, decode and have the native size
+  // (video frames are decoded). Throws InputError on the first offending frame.
   void Validate() const;
 
   const DatasetOptions& options() const { return options_; }
@@ -135,6 +161,8 @@ class Sequence {
   PinholeCamera native_camera_;
   double depth_scale_ = 1.0;
   DatasetOptions options_;
+  std::shared_ptr<const Undistorter> undistorter_;
+  std::shared_ptr<VideoReader> video_;
 };
 
 // Opens the sequence described by `options` (checked first): dispatches on options.type.
@@ -148,14 +176,19 @@ ImageF ResizeDepth(const ImageF& depth, int width, int height);
 
 // Helpers shared by the readers (exposed for tests and other readers).
 
-// Keeps frames [options.first, options.last] (last = -1: to the end); InputError when the range
-// is empty or outside the recording. `what` names the recording in the message.
+// Keeps frames options.first, first + step, ... up to options.last (last = -1: to the end) and
+// sets each frame's source_index to its index in `frames`; InputError when the range is empty or
+// outside the recording. `what` names the recording in the message.
 std::vector<FrameInfo> SelectFrameRange(std::vector<FrameInfo> frames,
                                         const DatasetOptions& options, const std::string& what);
 
 // Throws InputError naming `what` when the principal point lies outside the image or a focal
 // length is not positive ("wrong calibration").
 void CheckCalibration(const PinholeCamera& camera, const std::string& what);
+
+// The camera.yaml a folder, TUM sequence or video uses: options.camera when set, else
+// `default_path`.
+std::string CameraYamlPath(const DatasetOptions& options, const std::string& default_path);
 
 // Image files (png, jpg, jpeg, ppm, pgm, bmp, tif, tiff; case-insensitive) in `folder`, sorted by
 // name. InputError when the folder does not exist.

@@ -6,6 +6,7 @@
 #include "dfo_io/camera_yaml.h"
 #include "dfo_io/image_io.h"
 #include "dfo_io/kitti_dataset.h"
+#include "dfo_io/lens.h"
 
 namespace dfo::io {
 namespace fs = std::filesystem;
@@ -15,7 +16,7 @@ Sequence OpenFolderSequence(const DatasetOptions& options) {
   std::error_code ec;
   if (!fs::is_directory(root, ec)) throw InputError("image folder not found: " + options.path);
   const std::string what = "image folder " + options.path;
-  const fs::path camera_path = root / "camera.yaml";
+  const fs::path camera_path = CameraYamlPath(options, (root / "camera.yaml").string());
   if (!fs::is_regular_file(camera_path, ec)) {
     throw InputError(what + ": camera file not found: " + camera_path.string() +
                      " (needs fx, fy, cx, cy, width, height)");
@@ -64,7 +65,8 @@ Sequence OpenFolderSequence(const DatasetOptions& options) {
         " is " + std::to_string(width) + "x" + std::to_string(height));
   }
   return Sequence(options.path, std::move(frames), camera.camera,
-                  camera.depth_scale.value_or(1000.0), options);
+                  camera.depth_scale.value_or(1000.0), options,
+                  MakeUndistorter(camera.camera, camera.lens, camera_path.string()));
 }
 
 }  // namespace dfo::io

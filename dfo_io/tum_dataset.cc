@@ -11,6 +11,7 @@
 #include "dfo_core/error.h"
 #include "dfo_io/camera_yaml.h"
 #include "dfo_io/image_io.h"
+#include "dfo_io/lens.h"
 #include "dfo_io/trajectory_io.h"
 
 namespace dfo::io {
@@ -168,12 +169,18 @@ Sequence OpenTumSequence(const DatasetOptions& options) {
 
   // Intrinsics: camera.yaml, else the folder-name rule (see the header).
   PinholeCamera camera;
+  LensDistortion lens;
   double depth_scale = 5000.0;
-  const fs::path camera_yaml = root / "camera.yaml";
+  const fs::path camera_yaml = CameraYamlPath(options, (root / "camera.yaml").string());
   bool camera_from_file = false;
+  if (!options.camera.empty() && !IsFile(camera_yaml)) {
+    throw InputError(what + ": camera file not found: " + camera_yaml.string() +
+                     " (dataset.camera)");
+  }
   if (IsFile(camera_yaml)) {
     const CameraYaml c = ReadCameraYaml(camera_yaml.string());
     camera = c.camera;
+    lens = c.lens;
     if (c.depth_scale) depth_scale = *c.depth_scale;
     camera_from_file = true;
   } else if (!TumDefaultCamera(options.path, &camera, nullptr)) {
@@ -232,7 +239,7 @@ Sequence OpenTumSequence(const DatasetOptions& options) {
   }
   CheckCalibration(camera, camera_from_file ? camera_yaml.string() : what);
   return Sequence("TUM " + root.lexically_normal().filename().string(), std::move(frames), camera,
-                  depth_scale, options);
+                  depth_scale, options, MakeUndistorter(camera, lens, camera_yaml.string()));
 }
 
 }  // namespace dfo::io

@@ -3,7 +3,8 @@
 //   <path>/rgb.txt          "timestamp filename" per line ('#' comments), times strictly increasing
 //   <path>/depth.txt        same for the 16-bit depth PNGs (metres = value / depth_scale)
 //   <path>/groundtruth.txt  optional, "timestamp tx ty tz qx qy qz qw" (world_from_cam)
-//   <path>/camera.yaml      optional intrinsics (dfo_io/camera_yaml.h; may set depth_scale)
+//   <path>/camera.yaml      optional intrinsics and lens (dfo_io/camera_yaml.h; may set
+//                           depth_scale); dataset.camera names another file (then required)
 //
 // Frames are the rgb.txt entries (all of them: a frame without a depth match has no depth).
 // Depth association follows TUM's associate.py: all (rgb, depth) pairs closer than
@@ -15,13 +16,15 @@
 //  - nearest: the ground-truth pose nearest in time when within tum_max_gt_diff.
 // Frames the rule gives no pose have none (FrameInfo::world_from_cam empty).
 //
-// Intrinsics rule: camera.yaml in the folder when present; otherwise the TUM benchmark's
+// Intrinsics rule: dataset.camera when set, else camera.yaml in the folder when present (a lens
+// with distortion: images and depth maps undistorted, dfo_io/lens.h); otherwise the TUM benchmark's
 // calibrated colour intrinsics of the sensor named by the folder name (first match of "freiburg1",
 // "freiburg2", "freiburg3" or "fr1", "fr2", "fr3", case-insensitive):
 //   fr1: fx 517.3 fy 516.5 cx 318.6 cy 255.3   fr2: 520.9 521.0 325.1 249.7
 //   fr3: 535.4 539.2 320.1 247.6               (640 x 480; depth scale 5000)
-// fr1/fr2 images carry lens distortion that dfo ignores (pinhole model): provide undistorted images
-// with a camera.yaml for accurate results. No camera.yaml and no such name: InputError.
+// fr1/fr2 images carry lens distortion that these defaults ignore (pinhole model): give a
+// camera.yaml with `model: radtan` and the sensor's coefficients for accurate results. No
+// camera.yaml and no such name: InputError.
 #ifndef DFO_IO_TUM_DATASET_H_
 #define DFO_IO_TUM_DATASET_H_
 

@@ -220,6 +220,13 @@ TEST(Camera, CheckNamesTheOffendingField) {
   ExpectInvalid(PinholeCamera(700, 700, 600, 180, 0, 370), "camera.width");
   ExpectInvalid(PinholeCamera(700, 700, 600, 180, 1226, -2), "camera.height");
   EXPECT_FALSE(PinholeCamera().IsValid());
+  // Finite but impossible for a pinhole image of this size.
+  ExpectInvalid(PinholeCamera(1e300, 700, 600, 180, 1226, 370), "camera.fx = 1e+300 is impossible");
+  ExpectInvalid(PinholeCamera(700, 1e-3, 600, 180, 1226, 370), "camera.fy");
+  ExpectInvalid(PinholeCamera(700, 100, 600, 180, 1226, 370), "camera.fx / camera.fy");
+  // Wide and narrow but possible lenses pass.
+  EXPECT_TRUE(PinholeCamera(0.1 * 1226, 0.1 * 370, 600, 180, 1226, 370).IsValid());
+  EXPECT_TRUE(PinholeCamera(20 * 1226, 20 * 1226, 600, 180, 1226, 370).IsValid());
 }
 
 TEST(Camera, IsInImageHonoursBorder) {

@@ -312,9 +312,11 @@ TEST(DfoConfig, DatasetDefaultsAgreeWithDatasetOptions) {
   const DatasetOptions defaults;
   EXPECT_EQ(from_config.type, defaults.type);
   EXPECT_EQ(from_config.path, defaults.path);
+  EXPECT_EQ(from_config.camera, defaults.camera);
   EXPECT_EQ(from_config.sequence, defaults.sequence);
   EXPECT_EQ(from_config.first, defaults.first);
   EXPECT_EQ(from_config.last, defaults.last);
+  EXPECT_EQ(from_config.step, defaults.step);
   EXPECT_EQ(from_config.image_width, defaults.image_width);
   EXPECT_EQ(from_config.image_height, defaults.image_height);
   EXPECT_EQ(from_config.keep_native, defaults.keep_native);
@@ -339,6 +341,27 @@ TEST(DfoConfig, DatasetOptionsFromConfigAppliesValuesAndChecks) {
   const Config bad =
       LoadConfigFromString("dataset:\n  path: /x\n  first: 5\n  last: 2\n", "d.yaml", DfoSchema());
   ExpectConfigError([&] { DatasetOptionsFromConfig(bad); }, {"dataset.last = 2"});
+}
+
+TEST(DfoConfig, VideoTypeCameraAndStepFlowIntoDatasetOptions) {
+  const Config c = LoadConfigFromString(
+      "dataset:\n  type: video\n  path: /data/drive.mkv\n  camera: /data/cam.yaml\n  step: 3\n",
+      "d.yaml", DfoSchema());
+  const DatasetOptions o = DatasetOptionsFromConfig(c);
+  EXPECT_EQ(o.type, "video");
+  EXPECT_EQ(o.path, "/data/drive.mkv");
+  EXPECT_EQ(o.camera, "/data/cam.yaml");
+  EXPECT_EQ(o.step, 3);
+  ExpectConfigError([] { LoadConfigFromString("dataset:\n  step: 0\n", "d.yaml", DfoSchema()); },
+                    {"dataset.step", "0"});
+  // KITTI's camera is its calib.txt.
+  const Config kitti = LoadConfigFromString(
+      "dataset:\n  type: kitti\n  path: /k\n  camera: /c.yaml\n", "d.yaml", DfoSchema());
+  ExpectConfigError([&] { DatasetOptionsFromConfig(kitti); }, {"dataset.camera", "kitti"});
+  DatasetOptions direct;
+  direct.path = "/k";
+  direct.step = 0;
+  ExpectConfigError([&] { direct.Check(); }, {"dataset.step = 0 violates >= 1"});
 }
 
 }  // namespace

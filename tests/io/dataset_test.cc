@@ -15,17 +15,15 @@
 #include "dfo_io/kitti_dataset.h"
 #include "dfo_io/trajectory_io.h"
 #include "dfo_io/tum_dataset.h"
+#include "tests/io/io_test_util.h"
 #include "tests/support/test_support.h"
 
 namespace dfo::io {
 namespace {
 
 namespace fs = std::filesystem;
-
-void WriteText(const std::string& path, const std::string& text) {
-  fs::create_directories(fs::path(path).parent_path());
-  std::ofstream(path) << text;
-}
+using test_util::ExpectInputError;
+using test_util::WriteText;
 
 // A gray test image whose pixels encode the frame index.
 ImageU8 Pattern(int width, int height, int index) {
@@ -86,19 +84,6 @@ DatasetOptions KittiOptions(const KittiFixture& f) {
   o.image_width = 20;
   o.image_height = 15;
   return o;
-}
-
-template <typename Fn>
-void ExpectInputError(Fn fn, const std::vector<std::string>& needles) {
-  try {
-    fn();
-    FAIL() << "no InputError thrown";
-  } catch (const InputError& e) {
-    const std::string what = e.what();
-    for (const auto& n : needles) {
-      EXPECT_NE(what.find(n), std::string::npos) << what << "\n  missing: " << n;
-    }
-  }
 }
 
 // --- Real data ---------------------------------------------------------------------------------
@@ -471,6 +456,30 @@ TEST(TumDataset, NearestModeAndGaps) {
   o.tum_max_depth_diff = 0.005;
   seq = OpenSequence(o);
   EXPECT_FALSE(seq.has_depth());
+}
+
+// A camera.yaml with a lens model (in the folder, or named by dataset.camera) undistorts TUM's
+// images and, with the nearest source pixel, its depth maps.
+TEST(TumDataset, LensModelAndDatasetCamera) {
+  const std::string root = MakeTum("crafted", true);
+  const std::string lens_yaml = test::MakeTempDir("tum_lens") + "/lens.yaml";
+  WriteText(lens_yaml,
+            "model: radtan\nwidth: 32\nheight: 24\nfx: 30\nfy: 30\ncx: 15.5\ncy: 11.5\n"
+            "depth_scale: 5000.0\nk1: -0.2\nk2: 0\np1: 0\np2: 0\n");
+  DatasetOptions o = TumOptions(root);
+  o.camera = lens_yaml;
+  const Sequence seq = OpenSequence(o);
+  ASSERT_NE(seq.undistorter(), nullptr);
+  const ImageU8 raw = ReadGray(seq.frame(1).image_path);
+  const ImageU8 image = seq.LoadImage(1);
+  EXPECT_NE(image.vector(), raw.vector());
+  EXPECT_EQ(image.vector(), seq.undistorter()->Apply(raw).vector());
+  const ImageF depth = seq.LoadDepth(1);
+  for (float d : depth.vector()) EXPECT_TRUE(d == 0.0f || d == 1.0f) << d;  // never blended
+  // Without dataset.camera: the folder's pinhole camera.yaml.
+  EXPECT_EQ(OpenSequence(TumOptions(root)).undistorter(), nullptr);
+  o.camera = root + "/none.yaml";
+  ExpectInputError([&] { OpenSequence(o); }, {"camera file not found", root + "/none.yaml"});
 }
 
 TEST(TumDataset, AssociationIsGreedyByTimeDifference) {

@@ -1,8 +1,8 @@
 #include "dfo_io/plot.h"
 
-#include <filesystem>
-
 #include <gtest/gtest.h>
+
+#include <filesystem>
 
 #include "dfo_core/error.h"
 #include "dfo_io/image_io.h"

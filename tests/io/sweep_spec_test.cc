@@ -74,10 +74,13 @@ TEST(SweepSpec, GridTimesListTimesSequencesInOrder) {
   const SweepRun& r = runs[3];  // setting 1 on "other"
   EXPECT_EQ(r.config, ConfigsDir() + "/synthetic.yaml");
   EXPECT_EQ(r.output_dir, "out/sweep_test/runs/other/translation_ratio=0.05__max_keyframes=7");
-  const std::vector<std::string> overrides = {
-      "run.progress=none",          "run.plot=false",        "dataset.path=out/other",
-      "run.threads=1",              "keyframe.translation_ratio=0.05",
-      "window.max_keyframes=7",     "run.output_dir=" + r.output_dir};
+  const std::vector<std::string> overrides = {"run.progress=none",
+                                              "run.plot=false",
+                                              "dataset.path=out/other",
+                                              "run.threads=1",
+                                              "keyframe.translation_ratio=0.05",
+                                              "window.max_keyframes=7",
+                                              "run.output_dir=" + r.output_dir};
   EXPECT_EQ(r.overrides, overrides);
   EXPECT_EQ(r.threads, 1);
   EXPECT_EQ(runs[0].threads, 2);  // demo.yaml's run.threads
@@ -121,23 +124,27 @@ TEST(SweepSpec, ErrorsNameFileLineAndSuggest) {
             "sweep.yaml:4: unknown dfo_run key 'keyframe.translation_ration' (did you mean "
             "'keyframe.translation_ratio'?)");
   // A value dfo_run would refuse: the line of the value itself.
-  const std::string range = ErrorOf(seq + "grid:\n  keyframe.translation_ratio:\n    - 0.1\n"
-                                          "    - -0.5\n");
+  const std::string range = ErrorOf(seq +
+                                    "grid:\n  keyframe.translation_ratio:\n    - 0.1\n"
+                                    "    - -0.5\n");
   EXPECT_NE(range.find("sweep.yaml:6:"), std::string::npos) << range;
   EXPECT_NE(range.find("violates > 0"), std::string::npos) << range;
   const std::string type = ErrorOf(seq + "set: {window.max_keyframes: many}\n");
   EXPECT_NE(type.find("sweep.yaml:3:"), std::string::npos) << type;
   EXPECT_NE(type.find("expected an integer"), std::string::npos) << type;
-  EXPECT_NE(ErrorOf(seq + "grid:\n  run.threads: []\n").find("sweep.yaml:4: grid key "
-                                                             "'run.threads' has no values"),
+  EXPECT_NE(ErrorOf(seq + "grid:\n  run.threads: []\n")
+                .find("sweep.yaml:4: grid key "
+                      "'run.threads' has no values"),
             std::string::npos);
   EXPECT_NE(ErrorOf(seq + "grid:\n  run.threads: [1, 1]\n").find("lists the value 1 twice"),
             std::string::npos);
-  EXPECT_NE(ErrorOf(seq + "set: {run.output_dir: x}\n").find("run.output_dir is chosen by the "
-                                                             "sweep"),
+  EXPECT_NE(ErrorOf(seq + "set: {run.output_dir: x}\n")
+                .find("run.output_dir is chosen by the "
+                      "sweep"),
             std::string::npos);
-  EXPECT_NE(ErrorOf(seq + "slurm: {partiton: x}\n").find("unknown slurm key 'partiton' (did you "
-                                                         "mean 'partition'?)"),
+  EXPECT_NE(ErrorOf(seq + "slurm: {partiton: x}\n")
+                .find("unknown slurm key 'partiton' (did you "
+                      "mean 'partition'?)"),
             std::string::npos);
   EXPECT_NE(ErrorOf(seq + "parallel: -1\n").find("sweep.yaml:3: parallel = -1 violates >= 0"),
             std::string::npos);
@@ -146,8 +153,7 @@ TEST(SweepSpec, ErrorsNameFileLineAndSuggest) {
   // Sequences.
   EXPECT_NE(ErrorOf("sequences: [{name: a}, {name: a}]\n").find("sequence 'a' is named twice"),
             std::string::npos);
-  EXPECT_NE(ErrorOf("sequences: [{name: a/b}]\n").find("must be a folder name"),
-            std::string::npos);
+  EXPECT_NE(ErrorOf("sequences: [{name: a/b}]\n").find("must be a folder name"), std::string::npos);
   EXPECT_NE(ErrorOf("sequences:\n  - name: a\n    sett: {}\n")
                 .find("sweep.yaml:3: unknown sequence key 'sett' (did you mean 'set'?)"),
             std::string::npos);
