@@ -175,7 +175,12 @@ void PrintComparison(const apps::SequenceRunResult& result, const apps::RunOutpu
   if (result.has_windowed()) columns.push_back({"windowed", &outputs.windowed_evaluation});
   for (const Column& c : columns) {
     if (!c.evaluation->available) {
-      std::cout << "evaluation:  " << c.name << ": none (" << c.evaluation->note << ")\n";
+      const io::JsonValue& lengths = outputs.summary["path_length"];
+      const std::string key = std::string(c.name) == "windowed" ? "windowed" : "frontend";
+      std::cout << "evaluation:  " << c.name << ": none (" << c.evaluation->note
+                << "); path length "
+                << apps::FormatFixed(lengths.Has(key) ? lengths[key].AsNumber() : 0.0, 2)
+                << " in the estimate's scale\n";
     }
   }
   if (columns.empty() || !columns.front().evaluation->available) return;

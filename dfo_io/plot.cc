@@ -324,12 +324,14 @@ void WriteTrajectoriesPlot(const std::string& path, const Trajectory& ground_tru
     legend_width = std::max(legend_width, TextSize(e.label, 0.5).width);
   }
   legend_width = std::max(legend_width, TextSize("ground truth", 0.5).width) + 80;
+  // No ground-truth line when there is none (a run without ground truth).
+  const size_t first_entry = ground_truth.size() == 0 ? 1 : 0;
   const cv::Rect legend(canvas.area.x + 10, canvas.area.y + 10, legend_width,
-                        14 + 22 * static_cast<int>(points.size()));
+                        14 + 22 * static_cast<int>(points.size() - first_entry));
   cv::rectangle(img, legend, kWhite, cv::FILLED);
   cv::rectangle(img, legend, kGrid, 1);
-  for (size_t k = 0; k < points.size(); ++k) {
-    const int y = legend.y + 18 + 22 * static_cast<int>(k);
+  for (size_t k = first_entry; k < points.size(); ++k) {
+    const int y = legend.y + 18 + 22 * static_cast<int>(k - first_entry);
     const cv::Scalar colour = k == 0 ? kGroundTruth : kColours[k - 1];
     cv::line(img, cv::Point(legend.x + 10, y), cv::Point(legend.x + 50, y), colour, 2, cv::LINE_AA);
     Text(img, k == 0 ? std::string("ground truth") : estimates[k - 1].label,

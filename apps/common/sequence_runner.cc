@@ -412,6 +412,16 @@ io::JsonValue MakeRunSummary(const SequenceRunResult& result, const RunEvaluatio
   return s;
 }
 
+double PathLength(const Trajectory& trajectory) {
+  double length = 0.0;
+  for (size_t i = 1; i < trajectory.size(); ++i) {
+    length += (trajectory[i].world_from_cam.translation() -
+               trajectory[i - 1].world_from_cam.translation())
+                  .norm();
+  }
+  return length;
+}
+
 std::vector<std::string> RemoveRunOutputs(const std::string& output_dir) {
   std::vector<std::string> removed;
   for (const char* name :
@@ -595,7 +605,40 @@ RunOutputs WriteRunOutputs(const SequenceRunResult& result, const std::string& o
       out.plot_path = p;
     });
   }
+  // Without ground truth: the estimated path(s) from above, in the estimate's own frame and scale,
+  // under the same file names, so that a user's own video also gives a picture.
+  const bool no_frontend_truth = !result.has_frontend() || !out.evaluation.available;
+  const bool no_windowed_truth = !result.has_windowed() || !out.windowed_evaluation.available;
+  if (plot && no_frontend_truth && no_windowed_truth && !result.frames.empty()) {
+    std::vector<io::LabelledTrajectory> paths;
+    std::vector<std::string> lines = {counts.substr(2, counts.size() - 3) +
+                                      ", no ground truth: the estimate's own frame and scale"};
+    const auto add = [&](const char* label, const Trajectory& t) {
+      paths.push_back({label, t});
+      lines.push_back(std::string(label) + ": path length " + FormatFixed(PathLength(t), 2) +
+                      " (network-depth units, metres if its scale is right)");
+    };
+    if (result.has_frontend()) add("frontend-only", estimate);
+    if (result.has_windowed()) add("windowed", windowed);
+    const char* file = result.has_frontend() && result.has_windowed() ? "comparison_trajectory.png"
+                       : result.has_frontend()                        ? "frontend_trajectory.png"
+                                                                      : "windowed_trajectory.png";
+    const std::string p = path(file);
+    write(p, [&] {
+      io::TrajectoryPlotOptions options;
+      options.title = "dfo_run: " + result.sequence_name + ", top view";
+      options.text_lines = lines;
+      io::WriteTrajectoriesPlot(p, Trajectory(), paths, options);
+      out.plot_path = p;
+    });
+  }
   out.summary = MakeRunSummary(result, out.evaluation, &out.windowed_evaluation);
+  {
+    io::JsonValue lengths = io::JsonValue::Object();
+    if (result.has_frontend()) lengths.Set("frontend", PathLength(estimate));
+    if (result.has_windowed()) lengths.Set("windowed", PathLength(windowed));
+    out.summary.Set("path_length", std::move(lengths));
+  }
   if (!out.incomplete.empty()) {
     io::JsonValue incomplete = io::JsonValue::Array();
     for (const std::string& what : out.incomplete) incomplete.Push(what);

@@ -455,6 +455,22 @@ TEST(DfoRun, DemoKeepsItsMeasuredAccuracy) {
   EXPECT_GT(windowed, 0.5 * test::kDemoWindowedAte);
 }
 
+// A sequence without ground truth (a user's own video) still gives a picture of the path from
+// above and its length, in the estimate's own scale.
+TEST(DfoRun, WithoutGroundTruthDrawsThePathAndGivesItsLength) {
+  const std::string root = MakeSequence("dfo_run_no_gt");
+  fs::remove_all(root + "/poses");
+  const std::string out = test::MakeTempDir("dfo_run_no_gt_out") + "/run";
+  const CommandResult r = RunDfoRun(RunArgs(root, out));
+  ASSERT_EQ(r.status, 0) << r.err;
+  EXPECT_TRUE(fs::is_regular_file(out + "/comparison_trajectory.png"));
+  const io::JsonValue summary = ReadSummary(out);
+  EXPECT_TRUE(summary["windowed"].IsNull());
+  EXPECT_GT(summary["path_length"]["frontend"].AsNumber(), 0.0);
+  EXPECT_GT(summary["path_length"]["windowed"].AsNumber(), 0.0);
+  EXPECT_NE(r.out.find("path length"), std::string::npos) << r.out;
+}
+
 TEST(DfoRunBadInput, DepthFullOfZerosIsLostNotACrash) {
   const std::string root = MakeSequence("dfo_run_zero_depth");
   for (int i = 0; i < kFrames; ++i)
