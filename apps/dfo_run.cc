@@ -144,10 +144,9 @@ void PrintComparison(const apps::SequenceRunResult& result, const apps::RunOutpu
   if (result.has_windowed()) {
     std::cout << "; window: " << k["ba_optimized"].AsInt() << " solves kept, "
               << k["ba_failed"].AsInt() << " not, " << k["marginalized"].AsInt()
-              << " keyframes left the window (marginalised; dropped with backend.marginalization "
-                 "false), at most "
-              << k["max_points"].AsInt() << " points / " << k["max_residual_blocks"].AsInt()
-              << " residual blocks";
+              << " keyframes marginalised into the prior and " << k["dropped"].AsInt()
+              << " dropped when leaving the window, at most " << k["max_points"].AsInt()
+              << " points / " << k["max_residual_blocks"].AsInt() << " residual blocks";
   }
   std::cout << "\n";
   // What the frames were tracked against (tracker.depth).

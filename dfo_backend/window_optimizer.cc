@@ -126,9 +126,9 @@ void WindowOptions::Check() const {
           min_point_fraction, "in [0, 1]");
   Require(min_marginalized_observations >= 1, "window.min_marginalized_observations",
           min_marginalized_observations, ">= 1");
-  Require(std::isfinite(depth_search_range) && depth_search_range >= 1.0 &&
-              depth_search_range <= 10.0,
-          "window.depth_search_range", depth_search_range, "in [1, 10]");
+  Require(
+      std::isfinite(depth_search_range) && depth_search_range >= 1.0 && depth_search_range <= 10.0,
+      "window.depth_search_range", depth_search_range, "in [1, 10]");
   Require(std::isfinite(depth_search_uniqueness) && depth_search_uniqueness >= 1.0,
           "window.depth_search_uniqueness", depth_search_uniqueness, ">= 1");
   Require(prior_weight > 0.0 && prior_weight <= 1.0, "backend.prior_weight", prior_weight,
@@ -141,13 +141,13 @@ struct WindowOptimizer::KeyframeState {
   int id = 0;
   int frame_index = 0;
   int64_t timestamp_ns = 0;
-  double pose[kPoseAmbientSize];  // world_from_cam, pose_manifold.h layout
-  SE3d frontend_pose;             // chained frontend measurement (relative pose prior)
-  FeatureLevel level;             // features at the BA level
-  FeatureLevel coarse;            // features at the BA level + 1 (coarse_iterations > 0)
-  ImageF depth;                   // depth at the BA level (m, 0 invalid)
+  double pose[kPoseAmbientSize];     // world_from_cam, pose_manifold.h layout
+  SE3d frontend_pose;                // chained frontend measurement (relative pose prior)
+  FeatureLevel level;                // features at the BA level
+  FeatureLevel coarse;               // features at the BA level + 1 (coarse_iterations > 0)
+  ImageF depth;                      // depth at the BA level (m, 0 invalid)
   double initial_depth_scale = 1.0;  // KeyframeData::initial_depth_scale
-  int num_selected = 0;           // points selected when it entered
+  int num_selected = 0;              // points selected when it entered
 };
 
 // One residual block: the cost (marginalisation, the gate's fallback, tests) and, for blocks of
@@ -368,8 +368,8 @@ void WindowOptimizer::SearchNewPointDepths(const KeyframeState* new_kf, WindowRe
       const Eigen::Vector3d a = target_from_host * Eigen::Vector3d(ray / lo);
       const Eigen::Vector3d b = target_from_host * Eigen::Vector3d(ray / hi);
       if (!(a.z() > 0.0) || !(b.z() > 0.0)) continue;
-      length = std::max(length, (target->level.camera.Project(a) -
-                                 target->level.camera.Project(b)).norm());
+      length = std::max(length,
+                        (target->level.camera.Project(a) - target->level.camera.Project(b)).norm());
     }
     if (!(length >= 2.0)) continue;  // too little parallax to tell depths apart
     ++result->num_depth_searched;
@@ -394,8 +394,8 @@ void WindowOptimizer::SearchNewPointDepths(const KeyframeState* new_kf, WindowRe
       }
     }
     if (!finite) continue;
-    const int best = static_cast<int>(std::min_element(energy.begin(), energy.end()) -
-                                      energy.begin());
+    const int best =
+        static_cast<int>(std::min_element(energy.begin(), energy.end()) - energy.begin());
     double second = std::numeric_limits<double>::infinity();
     for (int i = 0; i < steps; ++i) {
       if (std::abs(i - best) <= 2) continue;
@@ -935,6 +935,7 @@ void WindowOptimizer::MarginalizeKeyframe(int position, WindowResult* result) {
         prior.residual += prior.jacobian * shift;
         prior_ = std::make_unique<LinearPriorCost>(
             std::move(prior), std::move(kinds), std::move(x0), options_.first_estimate_jacobians);
+        result->marginalized_into_prior = true;
       } else {
         warn("marginalisation prior of keyframe " + std::to_string(leaving->frame_index) +
              " rejected: " + why + " (its information is dropped)");

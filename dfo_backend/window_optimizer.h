@@ -81,8 +81,8 @@ struct WindowOptions {
   // depths of that moment: the new keyframe's from the frontend, the others' from the window). It
   // also leaves out the near points' long links, the strongest parallax, so the basin is
   // narrower (tests/backend/window_optimizer_test.cc); measured on 5 synthetic sequences it
-  // helps with learned and true depth and makes the BA ~1.5x faster (docs/window.md). > 1 (a large value
-  // turns the gate off).
+  // helps with learned and true depth and makes the BA ~1.5x faster (docs/window.md). > 1 (a large
+  // value turns the gate off).
   double max_patch_stretch = 1.5;
   // Points selected per keyframe; in [1, 100000]. 150 (7 keyframes: about 1,000 points in the
   // window; DSO's real-time setting keeps 800 at 424 x 320): over 8 synthetic sequences about as
@@ -136,8 +136,8 @@ struct WindowOptions {
   // away) and the line is at least 2 px long, else it keeps rho0. A wrong source depth is then
   // corrected by parallax before the solve, whose basin is a pixel or two wide. The search
   // trusts the keyframes' current poses (a new keyframe's from tracking): with poses decimetres
-  // off it picks wrong depths. The depth prior stays toward the source's depth. depth_search_range: 1 = off, else in (1, 10];
-  // depth_search_uniqueness >= 1. Defaults (2, 2) measured on real video
+  // off it picks wrong depths. The depth prior stays toward the source's depth. depth_search_range:
+  // 1 = off, else in (1, 10]; depth_search_uniqueness >= 1. Defaults (2, 2) measured on real video
   // (docs/tracking_against_the_window.md).
   double depth_search_range = 2.0;
   double depth_search_uniqueness = 2.0;
@@ -173,6 +173,9 @@ struct WindowResult {
   // The keyframe that left the window in this step (-1: none) and its final pose.
   int marginalized_frame_index = -1;
   SE3d marginalized_pose;
+  // True when its information went into the marginalisation prior; false when it was dropped
+  // (backend.marginalization false, or a prior that was rejected).
+  bool marginalized_into_prior = false;
   // Ceres cost (0.5 sum of robustified squared residuals) before the first and after the last
   // solve.
   double initial_cost = 0.0;

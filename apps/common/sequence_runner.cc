@@ -263,7 +263,7 @@ io::JsonValue KeyframesToJson(const SequenceRunResult& result) {
   io::JsonValue k = io::JsonValue::Object();
   k.Set("count", static_cast<int64_t>(result.keyframes.size()));
   std::map<std::string, int> reasons;
-  int ba_runs = 0, optimized = 0, marginalized = 0, max_keyframes = 0, max_points = 0,
+  int ba_runs = 0, optimized = 0, marginalized = 0, dropped = 0, max_keyframes = 0, max_points = 0,
       max_blocks = 0;
   io::JsonValue failures = io::JsonValue::Array();
   for (const KeyframeRecord& r : result.keyframes) {
@@ -272,7 +272,9 @@ io::JsonValue KeyframesToJson(const SequenceRunResult& result) {
     if (!r.ba_ran || r.window.keyframe_poses.size() < 2) continue;
     ++ba_runs;
     optimized += r.window.optimized ? 1 : 0;
-    marginalized += r.window.marginalized_frame_index >= 0 ? 1 : 0;
+    const bool left = r.window.marginalized_frame_index >= 0;
+    marginalized += left && r.window.marginalized_into_prior ? 1 : 0;
+    dropped += left && !r.window.marginalized_into_prior ? 1 : 0;
     max_keyframes = std::max(max_keyframes, static_cast<int>(r.window.keyframe_poses.size()));
     max_points = std::max(max_points, r.window.num_points);
     max_blocks = std::max(max_blocks, r.window.num_residual_blocks);
@@ -290,6 +292,7 @@ io::JsonValue KeyframesToJson(const SequenceRunResult& result) {
   k.Set("ba_optimized", optimized);
   k.Set("ba_failed", ba_runs - optimized);
   k.Set("marginalized", marginalized);
+  k.Set("dropped", dropped);
   k.Set("max_window_keyframes", max_keyframes);
   k.Set("max_points", max_points);
   k.Set("max_residual_blocks", max_blocks);

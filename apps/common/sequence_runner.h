@@ -205,7 +205,9 @@ RunEvaluation EvaluateEstimate(const SequenceRunResult& result, const Trajectory
 //   "keyframes": {"count", "reasons": {reason: count} ("frontend" for the frontend's own
 //               switches), "ba_runs" (keyframes with a solve: two or more in the window),
 //               "ba_optimized", "ba_failed" (solves whose result was not kept),
-//               "marginalized", "max_window_keyframes", "max_points", "max_residual_blocks",
+//               "marginalized" (keyframes whose information went into the marginalisation prior),
+//               "dropped" (keyframes that left the window without: backend.marginalization false or
+//               a rejected prior), "max_window_keyframes", "max_points", "max_residual_blocks",
 //               "failures": [{"frame", "message"}] (at most 20)},
 //   "tracking_depth": {"depth" (window | source: what keyframes are tracked against after their
 //               window solve; source in mode frontend), "fill" (tracker.depth_fill, with

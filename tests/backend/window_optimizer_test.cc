@@ -203,6 +203,7 @@ TEST(WindowOptimizerTest, WindowStaysBoundedOverALongRunAndMarginalizes) {
       // The leaving keyframe is never one of the newest two.
       EXPECT_LT(result.marginalized_frame_index, 3 * (k - 1));
       EXPECT_NE(window.prior(), nullptr) << result.message;
+      EXPECT_TRUE(result.marginalized_into_prior);
     }
     max_points = std::max(max_points, result.num_points);
     max_blocks = std::max(max_blocks, result.num_residual_blocks);
@@ -248,7 +249,15 @@ TEST(WindowOptimizerTest, MarginalizationOffOnlyDrops) {
   options.max_iterations = 3;
   options.marginalization = false;
   WindowOptimizer window(options);
-  for (int k = 0; k < 7; ++k) window.AddKeyframe(test::MakeSyntheticKeyframe(Sequence(), 3 * k, 2));
+  int dropped = 0;
+  for (int k = 0; k < 7; ++k) {
+    const WindowResult r = window.AddKeyframe(test::MakeSyntheticKeyframe(Sequence(), 3 * k, 2));
+    if (r.marginalized_frame_index >= 0) {
+      EXPECT_FALSE(r.marginalized_into_prior);
+      ++dropped;
+    }
+  }
+  EXPECT_EQ(dropped, 2);
   EXPECT_EQ(window.num_keyframes(), 5);
   EXPECT_EQ(window.prior(), nullptr);
 }
