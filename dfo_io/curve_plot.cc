@@ -3,14 +3,13 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
-#include <filesystem>
 #include <limits>
 #include <opencv2/core.hpp>
-#include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
 #include <sstream>
 
 #include "dfo_core/error.h"
+#include "dfo_io/image_file_writer.h"
 
 namespace dfo::io {
 namespace {
@@ -33,7 +32,6 @@ std::string Format(double v) {
   std::snprintf(buf, sizeof(buf), "%.4g", std::abs(v) < 1e-12 ? 0.0 : v);
   return buf;
 }
-
 
 // Axes shared by the curve and scatter plots: data ranges (y optionally in log10), the mapping to
 // pixels, grid, tick labels, frame, axis labels and title, and writing the PNG.
@@ -76,7 +74,9 @@ class PlotAxes {
     y_max_ += py;
   }
 
-  int Px(double x) const { return left_ + static_cast<int>((x - x_min_) / (x_max_ - x_min_) * Pw()); }
+  int Px(double x) const {
+    return left_ + static_cast<int>((x - x_min_) / (x_max_ - x_min_) * Pw());
+  }
   int Py(double y) const { return PyT(Ty(y)); }
   cv::Point P(double x, double y) const { return {Px(x), Py(y)}; }
   int left() const { return left_; }
@@ -149,20 +149,6 @@ class PlotAxes {
   double x_min_ = std::numeric_limits<double>::infinity(), x_max_ = -x_min_;
   double y_min_ = x_min_, y_max_ = -x_min_;
 };
-
-// Writes `img` as PNG to `path`, creating missing parent folders; `what` names the plot.
-void WritePng(const cv::Mat& img, const std::string& path, const std::string& what) {
-  const std::filesystem::path parent = std::filesystem::path(path).parent_path();
-  std::error_code ec;
-  if (!parent.empty()) std::filesystem::create_directories(parent, ec);
-  bool ok = false;
-  try {
-    ok = cv::imwrite(path, img);
-  } catch (const cv::Exception& e) {
-    throw InputError(what + " " + path + ": cannot be written (" + e.what() + ")");
-  }
-  if (!ok) throw InputError(what + " " + path + ": cannot be written");
-}
 
 // Throws ConfigError "<what> <field> = <value> violates <rule>" for bad plot sizes.
 void CheckPlotSize(const std::string& what, int width, int height) {
@@ -250,17 +236,16 @@ void WriteCurvePlot(const std::string& path, const std::vector<CurveSeries>& ser
     cv::line(img, {right - 230, ly - 4}, {right - 205, ly - 4}, colour, 3);
     cv::putText(img, series[k].name, {right - 198, ly}, kFont, 0.45, text, 1, cv::LINE_AA);
   }
-  WritePng(img, path, "curve plot");
+  WriteImageFile(img, path, "curve plot");
 }
 
 void WriteScatterPlot(const std::string& path, const std::vector<ScatterSeries>& series,
                       const ScatterPlotOptions& options) {
   options.Check();
   const int note_height = 17;
-  PlotAxes axes(options.width, options.height, options.log_y, !options.title.empty(),
-                options.notes.empty()
-                    ? 0
-                    : note_height * static_cast<int>(options.notes.size()) + 8);
+  PlotAxes axes(
+      options.width, options.height, options.log_y, !options.title.empty(),
+      options.notes.empty() ? 0 : note_height * static_cast<int>(options.notes.size()) + 8);
   if (axes.Ph() < 100) {
     throw ConfigError("scatter plot height = " + std::to_string(options.height) + " leaves " +
                       std::to_string(axes.Ph()) + " pixels for the plot under " +
@@ -318,7 +303,7 @@ void WriteScatterPlot(const std::string& path, const std::vector<ScatterSeries>&
     cv::putText(img, note, {axes.left(), note_y}, kFont, 0.45, text, 1, cv::LINE_AA);
     note_y += note_height;
   }
-  WritePng(img, path, "scatter plot");
+  WriteImageFile(img, path, "scatter plot");
 }
 
 }  // namespace dfo::io

@@ -3,12 +3,12 @@
 #include <cmath>
 #include <cstring>
 #include <filesystem>
-
 #include <opencv2/core.hpp>
 #include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
 
 #include "dfo_core/error.h"
+#include "dfo_io/image_file_writer.h"
 
 namespace dfo::io {
 namespace {
@@ -46,18 +46,7 @@ cv::Mat ToMat(const Image<T>& image, int depth) {
   return m;
 }
 
-void Save(const std::string& path, const cv::Mat& m) {
-  const auto parent = std::filesystem::path(path).parent_path();
-  std::error_code ec;
-  if (!parent.empty()) std::filesystem::create_directories(parent, ec);
-  bool ok = false;
-  try {
-    ok = cv::imwrite(path, m);
-  } catch (const cv::Exception& e) {
-    throw InputError("cannot write image " + path + ": " + e.what());
-  }
-  if (!ok) throw InputError("cannot write image " + path + " (folder missing or not writable?)");
-}
+void Save(const std::string& path, const cv::Mat& m) { WriteImageFile(m, path, "image"); }
 
 }  // namespace
 

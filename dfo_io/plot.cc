@@ -4,13 +4,12 @@
 #include <array>
 #include <cmath>
 #include <cstdio>
-#include <filesystem>
 #include <limits>
 #include <opencv2/core.hpp>
-#include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
 
 #include "dfo_core/error.h"
+#include "dfo_io/image_file_writer.h"
 
 namespace dfo::io {
 namespace {
@@ -264,16 +263,7 @@ void WriteTrajectoryPlot(const std::string& path, const Trajectory& ground_truth
     }
   }
 
-  const auto parent = std::filesystem::path(path).parent_path();
-  std::error_code ec;
-  if (!parent.empty()) std::filesystem::create_directories(parent, ec);
-  bool ok = false;
-  try {
-    ok = cv::imwrite(path, img);
-  } catch (const cv::Exception& e) {
-    throw InputError("cannot write plot " + path + ": " + e.what());
-  }
-  if (!ok) throw InputError("cannot write plot " + path + " (folder not writable or not .png?)");
+  WriteImageFile(img, path, "plot");
 }
 
 void WriteTrajectoriesPlot(const std::string& path, const Trajectory& ground_truth,
@@ -338,16 +328,7 @@ void WriteTrajectoriesPlot(const std::string& path, const Trajectory& ground_tru
          cv::Point(legend.x + 60, y + 5), 0.5, kBlack);
   }
 
-  const auto parent = std::filesystem::path(path).parent_path();
-  std::error_code ec;
-  if (!parent.empty()) std::filesystem::create_directories(parent, ec);
-  bool ok = false;
-  try {
-    ok = cv::imwrite(path, img);
-  } catch (const cv::Exception& e) {
-    throw InputError("cannot write plot " + path + ": " + e.what());
-  }
-  if (!ok) throw InputError("cannot write plot " + path + " (folder not writable or not .png?)");
+  WriteImageFile(img, path, "plot");
 }
 
 }  // namespace dfo::io
