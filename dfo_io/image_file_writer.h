@@ -1,5 +1,5 @@
 // The one writer of image files in dfo_io (PNGs of images and depth maps, plots): encodes with
-// OpenCV by the file's extension, writes "<path>.tmp" and renames it onto `path`, so a failed
+// OpenCV by the file's extension and writes with WriteFileAtomically (file_writer.h), so a failed
 // write (full disk, a folder in the way) never leaves a partial file under the final name.
 #ifndef DFO_IO_IMAGE_FILE_WRITER_H_
 #define DFO_IO_IMAGE_FILE_WRITER_H_

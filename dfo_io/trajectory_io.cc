@@ -12,6 +12,7 @@
 #include <sstream>
 
 #include "dfo_core/error.h"
+#include "dfo_io/file_writer.h"
 #include "dfo_io/json.h"
 
 namespace dfo::io {
@@ -33,39 +34,6 @@ std::ifstream OpenForReading(const std::string& path, const char* what) {
   std::ifstream in(path);
   if (!in) throw InputError(std::string("cannot open ") + what + " file " + path);
   return in;
-}
-
-// Files are written to "<path>.tmp" and renamed onto `path` once complete, so `path` never holds
-// a partial file written by this call (an older complete file stays until the rename).
-std::ofstream OpenForWriting(const std::string& path, const char* what) {
-  const auto parent = std::filesystem::path(path).parent_path();
-  std::error_code ec;
-  if (!parent.empty()) std::filesystem::create_directories(parent, ec);
-  errno = 0;
-  std::ofstream out(path + ".tmp");
-  if (!out) {
-    throw InputError(std::string("cannot write ") + what + " file " + path + ".tmp (" +
-                     std::strerror(errno != 0 ? errno : EIO) + ")");
-  }
-  return out;
-}
-
-void FinishWriting(std::ofstream& out, const std::string& path) {
-  const std::string tmp = path + ".tmp";
-  errno = 0;
-  out.flush();
-  out.close();
-  if (!out) {
-    const int error = errno != 0 ? errno : EIO;
-    std::remove(tmp.c_str());
-    throw InputError("error while writing " + path + " (" + std::strerror(error) + ")");
-  }
-  if (std::rename(tmp.c_str(), path.c_str()) != 0) {
-    const int error = errno;
-    std::remove(tmp.c_str());
-    throw InputError("cannot write " + path + ": renaming " + tmp + " onto it failed (" +
-                     std::strerror(error) + ")");
-  }
 }
 
 // Splits a line into whitespace-separated tokens. Returns false for blank and '#' lines.
@@ -301,18 +269,17 @@ std::string TumTrajectoryLine(int64_t timestamp_ns, const SE3d& world_from_cam) 
 }
 
 void WriteKittiTrajectory(const std::string& path, const Trajectory& trajectory) {
-  std::ofstream out = OpenForWriting(path, "KITTI trajectory");
-  for (const auto& pose : trajectory) out << KittiTrajectoryLine(pose.world_from_cam);
-  FinishWriting(out, path);
+  std::string text;
+  for (const auto& pose : trajectory) text += KittiTrajectoryLine(pose.world_from_cam);
+  WriteFileAtomically(path, text, "KITTI trajectory");
 }
 
 void WriteTumTrajectory(const std::string& path, const Trajectory& trajectory) {
-  std::ofstream out = OpenForWriting(path, "TUM trajectory");
-  out << kTumTrajectoryHeader;
+  std::string text = kTumTrajectoryHeader;
   for (const auto& pose : trajectory) {
-    out << TumTrajectoryLine(pose.timestamp_ns, pose.world_from_cam);
+    text += TumTrajectoryLine(pose.timestamp_ns, pose.world_from_cam);
   }
-  FinishWriting(out, path);
+  WriteFileAtomically(path, text, "TUM trajectory");
 }
 
 void WriteTrajectory(const std::string& path, const Trajectory& trajectory,

@@ -19,6 +19,7 @@
 #include "apps/common/cli.h"
 #include "apps/common/run_stats.h"
 #include "dfo_core/error.h"
+#include "dfo_io/file_writer.h"
 #include "dfo_io/plot.h"
 #include "dfo_io/trajectory_io.h"
 
@@ -27,27 +28,9 @@ namespace {
 
 namespace fs = std::filesystem;
 
-// Writes `text` to "<path>.tmp" and renames it onto `path`: `path` is never half-written.
+// Writes `text` to `path` under a temporary name, renamed when complete.
 void WriteTextFile(const std::string& path, const std::string& text) {
-  const std::string tmp = path + ".tmp";
-  std::FILE* file = std::fopen(tmp.c_str(), "wb");
-  if (file == nullptr) {
-    throw InputError("cannot write " + path + " (" + std::strerror(errno) + ")");
-  }
-  const bool written = std::fwrite(text.data(), 1, text.size(), file) == text.size();
-  const int write_error = errno;
-  const bool closed = std::fclose(file) == 0;
-  if (!written || !closed) {
-    const int error = !written ? write_error : errno;
-    std::remove(tmp.c_str());
-    throw InputError("error while writing " + path + " (" + std::strerror(error) + ")");
-  }
-  if (std::rename(tmp.c_str(), path.c_str()) != 0) {
-    const int error = errno;
-    std::remove(tmp.c_str());
-    throw InputError("cannot write " + path + ": renaming " + tmp + " onto it failed (" +
-                     std::strerror(error) + ")");
-  }
+  io::WriteFileAtomically(path, text, "output");
 }
 
 }  // namespace
