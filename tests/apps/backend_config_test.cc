@@ -189,8 +189,7 @@ TEST(BackendConfig, ContradictionsNameTheKeys) {
 
 TEST(BackendConfig, EveryShippedConfigGivesValidBackendOptions) {
   for (const char* name :
-       {"default.yaml", "demo.yaml", "demo_learned.yaml", "kitti.yaml", "tum.yaml",
-        "synthetic.yaml"}) {
+       {"default.yaml", "demo.yaml", "demo_learned.yaml", "kitti.yaml", "tum.yaml"}) {
     SCOPED_TRACE(name);
     const io::Config config =
         io::LoadConfig(test::SourceDir() + "/configs/" + name, io::DfoSchema());

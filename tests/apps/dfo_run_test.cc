@@ -272,7 +272,7 @@ TEST(DfoRun, ShippedConfigsRunWithOnlyThePathChanged) {
     std::string config, path, sequence, expect;
   };
   std::vector<Case> cases;
-  for (const char* config : {"default", "demo", "demo_learned", "synthetic", "kitti"}) {
+  for (const char* config : {"default", "demo", "demo_learned", "kitti"}) {
     cases.push_back({config, with_depth, "00", ""});
   }
   cases.push_back({"kitti", without_depth, "00", "depth learned (auto)"});

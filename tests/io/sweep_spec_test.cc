@@ -34,7 +34,7 @@ sequences:
   - name: synthetic
     set: {dataset.path: out/synthetic}
   - name: other
-    config: synthetic.yaml
+    config: demo_learned.yaml
     set:
       dataset.path: out/other
       run.threads: 1
@@ -51,7 +51,7 @@ TEST(SweepSpec, GridTimesListTimesSequencesInOrder) {
   const SweepSpec spec = Load(kTwoByTwo);
   EXPECT_EQ(spec.base_config, ConfigsDir() + "/demo.yaml");
   ASSERT_EQ(spec.sequences.size(), 2u);
-  EXPECT_EQ(spec.sequences[1].config, ConfigsDir() + "/synthetic.yaml");
+  EXPECT_EQ(spec.sequences[1].config, ConfigsDir() + "/demo_learned.yaml");
   ASSERT_EQ(spec.settings.size(), 5u);  // 2 x 2 grid + 1 listed
   const std::vector<std::string> keys = {"keyframe.translation_ratio", "window.max_keyframes",
                                          "run.mode"};
@@ -72,7 +72,7 @@ TEST(SweepSpec, GridTimesListTimesSequencesInOrder) {
     EXPECT_EQ(runs[i].sequence, static_cast<int>(i % 2));
   }
   const SweepRun& r = runs[3];  // setting 1 on "other"
-  EXPECT_EQ(r.config, ConfigsDir() + "/synthetic.yaml");
+  EXPECT_EQ(r.config, ConfigsDir() + "/demo_learned.yaml");
   EXPECT_EQ(r.output_dir, "out/sweep_test/runs/other/translation_ratio=0.05__max_keyframes=7");
   const std::vector<std::string> overrides = {"run.progress=none",
                                               "run.plot=false",
