@@ -31,7 +31,8 @@ namespace dfo::apps {
 
 // The `learned` section of an io::DfoSchema() Config as LearnedModelOptions (not checked; the
 // model's loading checks them): learned.model -> model_path, learned.threads -> num_threads
-// (0 = run.threads, see ThreadsFromConfig), num_levels, channels, rho, require_input_size.
+// (0 = run.threads, see ThreadsFromConfig), num_levels, channels, rho, require_input_size,
+// device.
 inline LearnedModelOptions LearnedModelOptionsFromConfig(const io::Config& config) {
   LearnedModelOptions o;
   o.model_path = config.GetString("learned.model");
@@ -41,6 +42,7 @@ inline LearnedModelOptions LearnedModelOptionsFromConfig(const io::Config& confi
   o.channels = config.GetIntList("learned.channels");
   o.rho = config.GetDoubleList("learned.rho");
   o.require_input_size = config.GetBool("learned.require_input_size");
+  o.device = config.GetString("learned.device");
   return o;
 }
 

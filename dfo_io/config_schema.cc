@@ -127,6 +127,9 @@ ConfigSchema BuildSchema() {
   s.AddBool("learned.require_input_size", true,
             "Frames must have the model's input size (set dataset.image_width/height to it); "
             "false = any size whose sides are divisible by 2^(levels - 1)");
+  s.AddString("learned.device", "cpu",
+              "Where the networks run: cpu, cuda or cuda:N (needs a LibTorch built with CUDA; "
+              "Debian's is CPU-only and refuses cuda at start-up)");
 
   s.AddSection("tracker",
                "Direct feature-metric tracker: coarse-to-fine Gauss-Newton, inverse "

@@ -63,10 +63,38 @@ void LearnedModelOptions::Check() const {
     CheckOption(std::isfinite(rho[i]) && rho[i] > 0.0 && rho[i] <= 1.0,
                 "learned.rho[" + std::to_string(i) + "]", rho[i], "in (0, 1]");
   }
+  bool device_ok = device == "cpu" || device == "cuda";
+  if (!device_ok && device.rfind("cuda:", 0) == 0 && device.size() > 5 && device.size() <= 8) {
+    device_ok = device.find_first_not_of("0123456789", 5) == std::string::npos;
+  }
+  CheckOption(device_ok, "learned.device", "\"" + device + "\"", "one of cpu, cuda, cuda:N");
 }
+
+namespace {
+
+// The torch device of learned.device; ConfigError when it names a CUDA device this LibTorch
+// cannot use (no CUDA build, no device, or an index beyond the devices present).
+torch::Device DeviceOf(const std::string& name) {
+  const torch::Device device(name);
+  if (!device.is_cuda()) return device;
+  if (!torch::cuda::is_available()) {
+    throw ConfigError("learned.device = \"" + name +
+                      "\": this LibTorch has no usable CUDA device (Debian's libtorch is built for "
+                      "the CPU only; build dfo against a CUDA LibTorch, see README, or use cpu)");
+  }
+  const int64_t count = static_cast<int64_t>(torch::cuda::device_count());
+  if (device.has_index() && device.index() >= count) {
+    throw ConfigError("learned.device = \"" + name + "\": only " + std::to_string(count) +
+                      " CUDA device(s) present");
+  }
+  return device;
+}
+
+}  // namespace
 
 struct LearnedModel::Impl {
   LearnedModelOptions options;
+  torch::Device device = torch::kCPU;  // learned.device
   LearnedModelInfo info;
   learned::LoadedModel model;
   // The frame whose outputs are held (valid while either flag is set), and which of them are
@@ -95,6 +123,7 @@ void LearnedModel::Impl::Load() {
   options.Check();
   // LibTorch's intra-op pool is process-wide; the default here is 1 thread (DESIGN.md).
   at::set_num_threads(options.num_threads);
+  device = DeviceOf(options.device);
   model = learned::LoadModel(options.model_path);
   const std::string prefix = "model file " + options.model_path + ": ";
   learned::NetworkOptions& o = model.options;
@@ -130,9 +159,11 @@ void LearnedModel::Impl::Load() {
     info.feature_parameters = learned::NumParameters(*model.networks->feature);
     // oneDNN's fast path on this CPU is NHWC (DESIGN.md "Training on this CPU").
     learned::ToChannelsLast(*model.networks);
+    model.networks->to(device);
     model.networks->eval();
   } else {
     info.kind = "torchscript";
+    model.script.to(device);
     model.script.eval();
     // Freezing folds parameters into constants and lets optimize_for_inference fuse conv/ReLU
     // and pre-pack weights for oneDNN (torch.jit.optimize_for_inference). Both are optional:
@@ -205,7 +236,7 @@ void LearnedModel::Impl::Run(const Frame& frame, bool want_features, bool want_d
                             .to(torch::kFloat32)
                             .div_(255.0f);
   if (image.channels() == 1) input = input.expand({1, 3, height, width});
-  input = input.contiguous(torch::MemoryFormat::ChannelsLast);
+  input = input.to(device).contiguous(torch::MemoryFormat::ChannelsLast);
 
   if (model.kind == learned::LoadedModel::Kind::kDfo) {
     if (need_depth) {
@@ -250,7 +281,7 @@ void LearnedModel::Impl::StoreDepth(const Frame& frame,
   for (int l = 0; l < o.num_levels; ++l) {
     const int w = width >> l, h = height >> l;
     // Depth: non-finite or <= 0 -> 0 (invalid), as the DepthSource contract asks.
-    torch::Tensor d = depth_levels[l].to(torch::kFloat32).contiguous().view({h, w});
+    torch::Tensor d = depth_levels[l].to(torch::kCPU, torch::kFloat32).contiguous().view({h, w});
     const torch::Tensor d_bad = ~torch::isfinite(d);
     stats.nonfinite_depth += d_bad.sum().item<int64_t>();
     d = torch::where(d_bad | (d <= 0), torch::zeros_like(d), d).contiguous();
@@ -276,8 +307,8 @@ void LearnedModel::Impl::StoreFeatures(const Frame& frame,
     const int c = static_cast<int>(feature_levels[l].size(1));
     const size_t n = static_cast<size_t>(w) * h;
     const torch::Tensor f_hwc =
-        feature_levels[l].to(torch::kFloat32).permute({0, 2, 3, 1}).contiguous();
-    const torch::Tensor l_hw = logit_levels[l].to(torch::kFloat32).contiguous();
+        feature_levels[l].to(torch::kCPU, torch::kFloat32).permute({0, 2, 3, 1}).contiguous();
+    const torch::Tensor l_hw = logit_levels[l].to(torch::kCPU, torch::kFloat32).contiguous();
     const float* f_src = f_hwc.data_ptr<float>();
     const float* l_src = l_hw.data_ptr<float>();
     FeatureLevel level(w, h, c, frame.camera.PyramidLevel(l));  // zeros

@@ -64,6 +64,10 @@ struct LearnedModelOptions {
   // otherwise). false: any size whose sides are divisible by 2^(levels - 1) (the networks are
   // fully convolutional; outputs are checked per frame).
   bool require_input_size = true;
+  // Where the networks run: "cpu", "cuda" (the current CUDA device) or "cuda:N". A CUDA device
+  // needs a LibTorch built with CUDA (README: pointing CMake at one); Debian's libtorch is built
+  // for the CPU only, and asking it for "cuda" is a ConfigError when the model is loaded.
+  std::string device = "cpu";
 
   // Throws ConfigError naming the field ("learned.num_threads = 0 violates >= 1").
   void Check() const;

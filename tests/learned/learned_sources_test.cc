@@ -3,6 +3,7 @@
 #include "dfo_frontend/learned/learned_sources.h"
 
 #include <gtest/gtest.h>
+#include <torch/cuda.h>
 
 #include <algorithm>
 #include <cmath>
@@ -74,6 +75,39 @@ TEST(LearnedSourcesTest, OptionsCheckNamesTheField) {
   options.num_threads = 1;
   options.rho = {0.5, 1.5};
   EXPECT_THROW(options.Check(), ConfigError);
+}
+
+TEST(LearnedSourcesTest, DeviceIsCheckedAndCudaWithoutCudaIsAClearStartUpError) {
+  LearnedModelOptions options;
+  options.model_path = WriteSmallModel("learned_device");
+  options.num_threads = 1;
+  for (const char* bad : {"gpu", "cuda:", "cuda:x", "CPU"}) {
+    options.device = bad;
+    try {
+      options.Check();
+      ADD_FAILURE() << "accepted learned.device = " << bad;
+    } catch (const ConfigError& e) {
+      EXPECT_NE(std::string(e.what()).find("learned.device"), std::string::npos) << e.what();
+    }
+  }
+  options.device = "cpu";
+  EXPECT_NE(LoadLearnedModel(options), nullptr);
+  options.device = "cuda";
+  if (torch::cuda::is_available()) {
+    // A CUDA build with a device: the model loads there (no figure required).
+    EXPECT_NE(LoadLearnedModel(options), nullptr);
+  } else {
+    // Debian's CPU-only LibTorch: one clear error when the model is loaded, before any frame.
+    try {
+      LoadLearnedModel(options);
+      ADD_FAILURE() << "learned.device = cuda accepted without CUDA";
+    } catch (const ConfigError& e) {
+      EXPECT_NE(std::string(e.what()).find("learned.device = \"cuda\": this LibTorch has no "
+                                           "usable CUDA device"),
+                std::string::npos)
+          << e.what();
+    }
+  }
 }
 
 TEST(LearnedSourcesTest, FeaturePyramidIsZScoredWithTopRhoMasks) {
