@@ -5,6 +5,7 @@
 #include <cstdlib>
 #include <filesystem>
 #include <fstream>
+#include <map>
 #include <sstream>
 
 #include "dfo_core/error.h"
@@ -42,6 +43,7 @@ KittiCalibration ReadKittiCalibration(const std::string& path) {
   std::ifstream file(path);
   if (!IsFile(path) || !file) throw InputError("KITTI calibration file not found: " + path);
   KittiCalibration calib;
+  std::map<std::string, int> first_line;  // label -> line of its row
   std::string line;
   int line_number = 0;
   while (std::getline(file, line)) {
@@ -79,6 +81,12 @@ KittiCalibration ReadKittiCalibration(const std::string& path) {
     for (int r = 0; r < 3; ++r) {
       for (int c = 0; c < 4; ++c) m(r, c) = numbers[r * 4 + c];
     }
+    const auto seen = first_line.find(label);
+    if (seen != first_line.end()) {
+      throw InputError(where + ": a second '" + label + ":' row (the first is on line " +
+                       std::to_string(seen->second) + "); which one is meant is unclear");
+    }
+    first_line[label] = line_number;
     calib.rows[label] = m;
   }
   return calib;

@@ -285,6 +285,15 @@ TEST(KittiErrors, CalibWithoutP0) {
                    {f.seq_dir + "/calib.txt", "no 'P0:' row"});
 }
 
+TEST(KittiErrors, SecondRowOfTheSameLabel) {
+  const KittiFixture f = MakeKitti("kitti_two_p0");
+  WriteText(f.seq_dir + "/calib.txt", ProjectionRow("P0", 50, 19.5, 14.5) +
+                                          ProjectionRow("P1", 50, 19.5, 14.5, -0.54) +
+                                          ProjectionRow("P0", 60, 19.5, 14.5));
+  ExpectInputError([&] { OpenSequence(KittiOptions(f)); },
+                   {f.seq_dir + "/calib.txt:3", "a second 'P0:' row", "line 1"});
+}
+
 TEST(KittiErrors, NonNumericCalib) {
   const KittiFixture f = MakeKitti("kitti_nan");
   WriteText(f.seq_dir + "/calib.txt",
