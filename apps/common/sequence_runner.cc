@@ -209,6 +209,15 @@ RunEvaluation EvaluateEstimate(const SequenceRunResult& result, const Trajectory
                               " processed frames have ground truth, at least 3 are needed";
     return e;
   }
+  // Lost frames keep the last good pose and restarts begin anew: with fewer than 2 tracked
+  // frames there is no estimated motion to evaluate, only poses carried over.
+  const int tracked =
+      result.CountStatus(TrackingStatus::kOk) + result.CountStatus(TrackingStatus::kDegraded);
+  if (tracked < 2) {
+    e.note = "only " + std::to_string(tracked) + " of " + std::to_string(result.frames.size()) +
+             " frames were tracked (the others lost or restarts): no estimated motion";
+    return e;
+  }
   try {
     TrajectoryEvaluationOptions sim3;
     sim3.alignment = AlignmentType::kSim3;  // monocular: the scale is arbitrary (evo_ape -as)

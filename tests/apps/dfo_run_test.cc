@@ -483,6 +483,10 @@ TEST(DfoRunBadInput, DepthFullOfZerosIsLostNotACrash) {
   EXPECT_EQ(s["frames_ok"].AsInt(), 0);
   EXPECT_EQ(s["frames_degraded"].AsInt(), 0);
   EXPECT_GE(s["frames_lost"].AsInt(), 1);
+  // No frame tracked: no ATE, and the summary says why.
+  EXPECT_TRUE(s["frontend"].IsNull());
+  EXPECT_TRUE(s["windowed"].IsNull());
+  EXPECT_NE(s["windowed_note"].AsString().find("frames were tracked"), std::string::npos);
   EXPECT_EQ(io::ReadKittiTrajectory(out + "/frontend_kitti.txt").size(),
             static_cast<size_t>(kFrames));
 }
