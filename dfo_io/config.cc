@@ -74,11 +74,21 @@ std::string QuoteString(const std::string& s) {
   std::string out = "\"";
   for (const char c : s) {
     switch (c) {
-      case '"': out += "\\\""; break;
-      case '\\': out += "\\\\"; break;
-      case '\n': out += "\\n"; break;
-      case '\t': out += "\\t"; break;
-      case '\r': out += "\\r"; break;
+      case '"':
+        out += "\\\"";
+        break;
+      case '\\':
+        out += "\\\\";
+        break;
+      case '\n':
+        out += "\\n";
+        break;
+      case '\t':
+        out += "\\t";
+        break;
+      case '\r':
+        out += "\\r";
+        break;
       default:
         if (static_cast<unsigned char>(c) < 0x20) {
           char buf[8];
@@ -95,13 +105,20 @@ std::string QuoteString(const std::string& s) {
 // What a value's type expects, for "expected ..., found ..." messages.
 const char* Expected(ConfigType type) {
   switch (type) {
-    case ConfigType::kBool: return "a boolean (true or false)";
-    case ConfigType::kInt: return "an integer";
-    case ConfigType::kDouble: return "a number";
-    case ConfigType::kString: return "a string";
-    case ConfigType::kIntList: return "a list of integers like [1, 2]";
-    case ConfigType::kDoubleList: return "a list of numbers like [0.5, 1.0]";
-    case ConfigType::kStringList: return "a list of strings like [a, b]";
+    case ConfigType::kBool:
+      return "a boolean (true or false)";
+    case ConfigType::kInt:
+      return "an integer";
+    case ConfigType::kDouble:
+      return "a number";
+    case ConfigType::kString:
+      return "a string";
+    case ConfigType::kIntList:
+      return "a list of integers like [1, 2]";
+    case ConfigType::kDoubleList:
+      return "a list of numbers like [0.5, 1.0]";
+    case ConfigType::kStringList:
+      return "a list of strings like [a, b]";
   }
   return "?";
 }
@@ -174,7 +191,9 @@ bool ParseElement(ConfigType type, const std::string& text, ConfigValue* out) {
       return true;
     }
     case ConfigType::kString:
-    case ConfigType::kStringList: *out = text; return true;
+    case ConfigType::kStringList:
+      *out = text;
+      return true;
   }
   return false;
 }
@@ -186,11 +205,16 @@ bool IsList(ConfigType type) {
 
 std::string Describe(const YAML::Node& node) {
   switch (node.Type()) {
-    case YAML::NodeType::Null: return "nothing (null)";
-    case YAML::NodeType::Scalar: return "'" + node.Scalar() + "'";
-    case YAML::NodeType::Sequence: return "a list";
-    case YAML::NodeType::Map: return "a mapping";
-    default: return "an undefined value";
+    case YAML::NodeType::Null:
+      return "nothing (null)";
+    case YAML::NodeType::Scalar:
+      return "'" + node.Scalar() + "'";
+    case YAML::NodeType::Sequence:
+      return "a list";
+    case YAML::NodeType::Map:
+      return "a mapping";
+    default:
+      return "an undefined value";
   }
 }
 
@@ -250,13 +274,20 @@ std::string Suggestion(const std::string& word, const std::vector<std::string>& 
 
 const char* ConfigTypeName(ConfigType type) {
   switch (type) {
-    case ConfigType::kBool: return "bool";
-    case ConfigType::kInt: return "int";
-    case ConfigType::kDouble: return "double";
-    case ConfigType::kString: return "string";
-    case ConfigType::kIntList: return "list of int";
-    case ConfigType::kDoubleList: return "list of double";
-    case ConfigType::kStringList: return "list of string";
+    case ConfigType::kBool:
+      return "bool";
+    case ConfigType::kInt:
+      return "int";
+    case ConfigType::kDouble:
+      return "double";
+    case ConfigType::kString:
+      return "string";
+    case ConfigType::kIntList:
+      return "list of int";
+    case ConfigType::kDoubleList:
+      return "list of double";
+    case ConfigType::kStringList:
+      return "list of string";
   }
   return "?";
 }
@@ -442,10 +473,22 @@ bool Config::GetBool(const std::string& path) const {
 int64_t Config::GetInt64(const std::string& path) const {
   return std::get<int64_t>(EntryOf(path, ConfigType::kInt).value);
 }
+namespace {
+
+// A value of an int key beyond the 32-bit range: a ConfigError naming where it came from.
+void CheckFitsInt(const Config& config, const std::string& path, int64_t v) {
+  if (v >= std::numeric_limits<int>::min() && v <= std::numeric_limits<int>::max()) return;
+  throw ConfigError(config.Source(path) + ": " + path + " = " + std::to_string(v) +
+                    " violates the integer range [" +
+                    std::to_string(std::numeric_limits<int>::min()) + ", " +
+                    std::to_string(std::numeric_limits<int>::max()) + "]");
+}
+
+}  // namespace
+
 int Config::GetInt(const std::string& path) const {
   const int64_t v = GetInt64(path);
-  DFO_CHECK(v >= std::numeric_limits<int>::min() && v <= std::numeric_limits<int>::max())
-      << path << " = " << v << " does not fit an int";
+  CheckFitsInt(*this, path, v);
   return static_cast<int>(v);
 }
 double Config::GetDouble(const std::string& path) const {
@@ -458,8 +501,7 @@ std::vector<int> Config::GetIntList(const std::string& path) const {
   const auto& l = std::get<std::vector<int64_t>>(EntryOf(path, ConfigType::kIntList).value);
   std::vector<int> out;
   for (const int64_t v : l) {
-    DFO_CHECK(v >= std::numeric_limits<int>::min() && v <= std::numeric_limits<int>::max())
-        << path << " element " << v << " does not fit an int";
+    CheckFitsInt(*this, path, v);
     out.push_back(static_cast<int>(v));
   }
   return out;
@@ -643,6 +685,9 @@ Config LoadConfig(const std::string& yaml_path, const ConfigSchema& schema,
                   const std::vector<std::string>& overrides) {
   if (yaml_path.empty()) return LoadConfigFromString("", "(defaults)", schema, overrides);
   std::error_code ec;
+  if (std::filesystem::is_directory(yaml_path, ec)) {
+    throw InputError("configuration file " + yaml_path + " is a folder; expected a YAML file");
+  }
   if (!std::filesystem::is_regular_file(yaml_path, ec)) {
     throw InputError("configuration file not found: " + yaml_path);
   }

@@ -194,6 +194,26 @@ TEST(ConfigErrors, StructureErrors) {
 
 TEST(ConfigErrors, MissingFileIsInputError) {
   EXPECT_THROW(LoadConfig("/nonexistent/dfo.yaml", TestSchema()), InputError);
+  const std::string dir = test::MakeTempDir("config_folder");
+  try {
+    LoadConfig(dir, TestSchema());
+    FAIL() << "a folder was accepted as a configuration file";
+  } catch (const InputError& e) {
+    EXPECT_NE(std::string(e.what()).find(dir + " is a folder"), std::string::npos) << e.what();
+  }
+}
+
+TEST(ConfigErrors, IntegerBeyondTheIntRangeNamesWhereItCameFrom) {
+  ConfigSchema schema = TestSchema();
+  schema.AddInt("keyframe.count", 1, "Any integer");
+  const Config file = LoadConfigFromString("keyframe:\n  count: 99999999999\n", "big.yaml", schema);
+  ExpectConfigError([&] { file.GetInt("keyframe.count"); },
+                    {"big.yaml:2", "keyframe.count = 99999999999", "integer range"});
+  EXPECT_EQ(file.GetInt64("keyframe.count"), 99999999999);  // 64-bit keys (seeds) keep it
+  const Config set =
+      LoadConfigFromString("", "o.yaml", TestSchema(), {"tracker.iterations=[1, 99999999999]"});
+  ExpectConfigError([&] { set.GetIntList("tracker.iterations"); },
+                    {"--set", "tracker.iterations = 99999999999"});
 }
 
 TEST(ConfigErrors, BadOverrides) {
