@@ -16,6 +16,7 @@
 
 #include "apps/common/cli.h"
 #include "dfo_core/error.h"
+#include "dfo_io/file_writer.h"
 #include "dfo_io/lcm/publisher.h"
 #include "dfo_io/lcm/trajectory_collector.h"
 #include "dfo_io/trajectory_io.h"
@@ -258,6 +259,8 @@ int ListenLive(const Args& args, Listener* listener) {
 }
 
 int Run(const Args& args) {
+  // Before listening: a trajectory that could not be written would lose what was received.
+  if (!args.tum_path.empty()) io::CheckFileWritable(args.tum_path, "--tum trajectory");
   Listener listener(args);
   int status = 0;
   if (!args.log_path.empty()) {

@@ -30,4 +30,20 @@ void WriteFileAtomically(const std::string& path, const std::string& bytes,
   if (std::rename(tmp.c_str(), path.c_str()) != 0) fail(errno, "renaming " + tmp + " onto it: ");
 }
 
+void CheckFileWritable(const std::string& path, const std::string& what) {
+  std::error_code ec;
+  if (std::filesystem::is_directory(path, ec)) {
+    throw InputError(what + " " + path + ": cannot be written (it is a folder)");
+  }
+  const std::filesystem::path p(path);
+  if (!p.parent_path().empty()) std::filesystem::create_directories(p.parent_path(), ec);
+  const std::string tmp = path + ".tmp";
+  std::FILE* file = std::fopen(tmp.c_str(), "wb");
+  if (file == nullptr) {
+    throw InputError(what + " " + path + ": cannot be written (" + std::strerror(errno) + ")");
+  }
+  std::fclose(file);
+  std::remove(tmp.c_str());
+}
+
 }  // namespace dfo::io

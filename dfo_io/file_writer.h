@@ -14,6 +14,11 @@ namespace dfo::io {
 void WriteFileAtomically(const std::string& path, const std::string& bytes,
                          const std::string& what);
 
+// Checks, before any work, that WriteFileAtomically(path, ...) can succeed: `path` is not a
+// folder and "<path>.tmp" can be created in its folder (created if missing; the probe is
+// removed). Throws InputError "<what> <path>: cannot be written (<reason>)" otherwise.
+void CheckFileWritable(const std::string& path, const std::string& what);
+
 }  // namespace dfo::io
 
 #endif  // DFO_IO_FILE_WRITER_H_

@@ -425,6 +425,16 @@ TEST(LcmListen, CommandLineAndStartUpErrors) {
   const CommandResult bad_url = RunCommand(DFO_LCM_LISTEN_EXE, "--url nosuch://x");
   EXPECT_EQ(bad_url.status, 1);
   EXPECT_NE(bad_url.err.find("cannot open LCM URL 'nosuch://x'"), std::string::npos) << bad_url.err;
+  // A --tum file that cannot be written stops the listener before it receives anything (the
+  // missing log would otherwise be the first error).
+  const std::string folder = test::MakeTempDir("lcm_tum_folder");
+  const CommandResult unwritable =
+      RunCommand(DFO_LCM_LISTEN_EXE, "--tum " + folder + " --log /nonexistent/x.lcmlog");
+  EXPECT_EQ(unwritable.status, 1);
+  EXPECT_NE(
+      unwritable.err.find("--tum trajectory " + folder + ": cannot be written (it is a folder)"),
+      std::string::npos)
+      << unwritable.err;
 }
 
 }  // namespace
