@@ -275,15 +275,10 @@ int Run(const Args& args) {
         "dataset.path is empty: name the sequence in the configuration or with --set "
         "dataset.path=DIR");
   }
-  // frontend.depth = auto: the dataset's depth maps when it has them, else the network.
+  // frontend.depth = auto: the dataset's depth maps when it has them (resolved once the dataset
+  // is open, below), else the network.
   const bool depth_auto = config.GetString("frontend.depth") == "auto";
-  bool dataset_has_depth = true;
-  if (depth_auto) {
-    io::DatasetOptions probe = dataset;
-    probe.depth = true;
-    dataset_has_depth = io::OpenSequence(probe).has_depth();
-  }
-  FrontendOptions frontend_options = apps::FrontendOptionsFromConfig(config, dataset_has_depth);
+  FrontendOptions frontend_options = apps::FrontendOptionsFromConfig(config);
   // keyframe.decided_by = manager: the keyframe manager switches the tracker's reference.
   frontend_options.reference.policy = apps::ReferencePolicyFromConfig(config);
   const OdometryOptions odometry_options = apps::OdometryOptionsFromConfig(config);
@@ -293,6 +288,7 @@ int Run(const Args& args) {
   // The ground-truth depth source needs the dataset's depth maps loaded with the images.
   if (frontend_options.depth == "gt") dataset.depth = true;
   io::Sequence sequence = io::OpenSequence(dataset);
+  if (depth_auto && !sequence.has_depth()) frontend_options.depth = "learned";
   if (frontend_options.depth == "gt" && !sequence.has_depth()) {
     throw InputError("no depth source: dataset " + sequence.name() + " (" + dataset.path +
                      ") has no depth maps; frontend.depth = gt needs ground-truth depth (TUM "

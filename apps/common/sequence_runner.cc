@@ -407,16 +407,6 @@ io::JsonValue MakeRunSummary(const SequenceRunResult& result, const RunEvaluatio
   return s;
 }
 
-double PathLength(const Trajectory& trajectory) {
-  double length = 0.0;
-  for (size_t i = 1; i < trajectory.size(); ++i) {
-    length += (trajectory[i].world_from_cam.translation() -
-               trajectory[i - 1].world_from_cam.translation())
-                  .norm();
-  }
-  return length;
-}
-
 std::vector<std::string> RemoveRunOutputs(const std::string& output_dir) {
   std::vector<std::string> removed;
   for (const char* name :
@@ -610,7 +600,7 @@ RunOutputs WriteRunOutputs(const SequenceRunResult& result, const std::string& o
                                       ", no ground truth: the estimate's own frame and scale"};
     const auto add = [&](const char* label, const Trajectory& t) {
       paths.push_back({label, t});
-      lines.push_back(std::string(label) + ": path length " + FormatFixed(PathLength(t), 2) +
+      lines.push_back(std::string(label) + ": path length " + FormatFixed(t.PathLength(), 2) +
                       " (network-depth units, metres if its scale is right)");
     };
     if (result.has_frontend()) add("frontend-only", estimate);
@@ -630,8 +620,8 @@ RunOutputs WriteRunOutputs(const SequenceRunResult& result, const std::string& o
   out.summary = MakeRunSummary(result, out.evaluation, &out.windowed_evaluation);
   {
     io::JsonValue lengths = io::JsonValue::Object();
-    if (result.has_frontend()) lengths.Set("frontend", PathLength(estimate));
-    if (result.has_windowed()) lengths.Set("windowed", PathLength(windowed));
+    if (result.has_frontend()) lengths.Set("frontend", estimate.PathLength());
+    if (result.has_windowed()) lengths.Set("windowed", windowed.PathLength());
     out.summary.Set("path_length", std::move(lengths));
   }
   if (!out.incomplete.empty()) {

@@ -245,9 +245,6 @@ struct RunOutputs {
 RunOutputs WriteRunOutputs(const SequenceRunResult& result, const std::string& output_dir,
                            bool plot = true);
 
-// Sum of the distances between consecutive positions (in the trajectory's own units).
-double PathLength(const Trajectory& trajectory);
-
 // "SIGINT", "SIGTERM", "SIGHUP", else "signal".
 const char* SignalName(int signal);
 
