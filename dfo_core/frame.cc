@@ -16,4 +16,18 @@ const char* TrackingStatusName(TrackingStatus status) {
   return "unknown";
 }
 
+const char* LostCauseName(LostCause cause) {
+  switch (cause) {
+    case LostCause::kNone:
+      return "";
+    case LostCause::kTracking:
+      return "tracking";
+    case LostCause::kNoDepth:
+      return "no_depth";
+    case LostCause::kFewPoints:
+      return "few_points";
+  }
+  return "unknown";
+}
+
 }  // namespace dfo

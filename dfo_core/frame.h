@@ -34,6 +34,19 @@ enum class TrackingStatus {
 // "ok", "degraded", "lost", "reference".
 const char* TrackingStatusName(TrackingStatus status);
 
+// Why a frame is lost (TrackingStatus::kLost).
+enum class LostCause {
+  kNone,       // not lost
+  kTracking,   // tracked against the reference, but too few inliers, too high a residual or a
+               // non-finite pose
+  kNoDepth,    // no reference to track against, and this frame cannot start one: its depth has
+               // too few valid pixels (a depth map of zeros or NaN)
+  kFewPoints,  // the same, with valid depth but too few selectable (textured) points
+};
+
+// "", "tracking", "no_depth", "few_points".
+const char* LostCauseName(LostCause cause);
+
 // The frontend's result for one frame.
 struct TrackedFrame {
   int index = 0;             // Frame::index
@@ -49,6 +62,7 @@ struct TrackedFrame {
                                   // units: 0 = perfect, ~1.4 = unrelated features)
   int iterations = 0;             // Gauss-Newton iterations over all levels and hypotheses
   double reference_mean_depth = 0.0;  // mean valid depth of the reference at the finest level (m)
+  LostCause lost_cause = LostCause::kNone;  // why, when status is kLost
 };
 
 }  // namespace dfo

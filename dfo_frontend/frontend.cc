@@ -172,7 +172,9 @@ TrackedFrame Frontend::Process(const Frame& frame) {
       out.num_inliers = out.num_points;
       out.reference_mean_depth = s.reference_mean_depth;
     } else {
-      out.status = TrackingStatus::kLost;  // e.g. a depth map full of zeros or NaN
+      out.status = TrackingStatus::kLost;
+      out.lost_cause = depth.NumValid(0) < MinReferenceDepths() ? LostCause::kNoDepth
+                                                                 : LostCause::kFewPoints;
     }
     s.has_motion = false;
     s.last_from_prev = SE3d();
@@ -193,6 +195,7 @@ TrackedFrame Frontend::Process(const Frame& frame) {
   const SE3d world_from_cam = s.world_from_ref * result.cur_from_ref.Inverse();
   if (result.status == TrackingStatus::kLost || !IsFinite(world_from_cam)) {
     out.status = TrackingStatus::kLost;
+    out.lost_cause = LostCause::kTracking;
     out.world_from_cam = s.world_from_last;  // the gap: the last good pose
     out.ref_from_cam = s.world_from_ref.Inverse() * s.world_from_last;
     s.has_reference = false;  // the next frame starts a fresh reference

@@ -13,6 +13,7 @@
 #include <vector>
 
 #include "dfo_core/error.h"
+#include "dfo_io/file_reader.h"
 #include "dfo_io/config.h"
 #include "dfo_io/dataset.h"
 
@@ -101,11 +102,9 @@ LensDistortion ReadLens(const std::string& path, const YAML::Node& root) {
 }  // namespace
 
 CameraYaml ReadCameraYaml(const std::string& path) {
-  std::error_code ec;
-  if (!fs::is_regular_file(path, ec)) throw InputError("camera file not found: " + path);
   YAML::Node root;
   try {
-    root = YAML::LoadFile(path);
+    root = YAML::Load(ReadWholeFile(path, "camera file", kMaxTextFileBytes));
   } catch (const YAML::Exception& e) {
     throw InputError(path + (e.mark.is_null() ? "" : ":" + std::to_string(e.mark.line + 1)) +
                      ": malformed YAML: " + e.msg);

@@ -14,6 +14,7 @@
 #include <sstream>
 
 #include "dfo_core/error.h"
+#include "dfo_io/file_reader.h"
 
 namespace dfo::io {
 namespace {
@@ -198,6 +199,9 @@ bool ParseElement(ConfigType type, const std::string& text, ConfigValue* out) {
   return false;
 }
 
+// Every list key holds a few values (one per pyramid level or network stage).
+constexpr size_t kMaxConfigListElements = 64;
+
 bool IsList(ConfigType type) {
   return type == ConfigType::kIntList || type == ConfigType::kDoubleList ||
          type == ConfigType::kStringList;
@@ -236,6 +240,11 @@ bool NodeToValue(const YAML::Node& node, ConfigType type, ConfigValue* out, std:
   }
   if (node.IsNull()) return fail(Describe(node));
   if (!node.IsSequence()) return fail(Describe(node));
+  if (node.size() > kMaxConfigListElements) {
+    *why = "a list of " + std::to_string(node.size()) + " elements; at most " +
+           std::to_string(kMaxConfigListElements) + " are allowed";
+    return false;
+  }
   std::vector<int64_t> ints;
   std::vector<double> doubles;
   std::vector<std::string> strings;
@@ -539,7 +548,13 @@ void Config::Set(const std::string& path, const ConfigValue& value, const std::s
 }
 
 void Config::ApplyOverride(const std::string& override_text) {
-  const std::string where = "--set '" + override_text + "'";
+  // A pasted megabyte stays out of the message.
+  const std::string where =
+      "--set '" +
+      (override_text.size() <= 200 ? override_text
+                                   : override_text.substr(0, 160) + "... (" +
+                                         std::to_string(override_text.size()) + " characters)") +
+      "'";
   const size_t eq = override_text.find('=');
   if (eq == std::string::npos) {
     throw ConfigError(where + ": no '=' found, expected section.key=value");
@@ -688,14 +703,8 @@ Config LoadConfig(const std::string& yaml_path, const ConfigSchema& schema,
   if (std::filesystem::is_directory(yaml_path, ec)) {
     throw InputError("configuration file " + yaml_path + " is a folder; expected a YAML file");
   }
-  if (!std::filesystem::is_regular_file(yaml_path, ec)) {
-    throw InputError("configuration file not found: " + yaml_path);
-  }
-  std::ifstream file(yaml_path);
-  if (!file) throw InputError("cannot read configuration file " + yaml_path);
-  std::stringstream buffer;
-  buffer << file.rdbuf();
-  return LoadConfigFromString(buffer.str(), yaml_path, schema, overrides);
+  return LoadConfigFromString(ReadWholeFile(yaml_path, "configuration file", kMaxTextFileBytes),
+                              yaml_path, schema, overrides);
 }
 
 namespace {

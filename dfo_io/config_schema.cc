@@ -26,9 +26,11 @@ ConfigSchema BuildSchema() {
            "Take every step-th frame from dataset.first up to dataset.last (1 = every frame)")
       .Min(1);
   s.AddInt("dataset.image_width", 416, "Width of loaded images in pixels (intrinsics rescaled)")
-      .GreaterThan(0);
+      .GreaterThan(0)
+      .Max(8192);
   s.AddInt("dataset.image_height", 128, "Height of loaded images in pixels (intrinsics rescaled)")
-      .GreaterThan(0);
+      .GreaterThan(0)
+      .Max(8192);
   s.AddBool("dataset.keep_native", false,
             "Load images at their native size and ignore image_width/image_height");
   s.AddBool("dataset.color", false, "Load RGB images (KITTI image_2 when present) instead of gray");
@@ -53,7 +55,7 @@ ConfigSchema BuildSchema() {
   // Defaults mirror SyntheticOptions (dfo_core/synthetic/options.h).
   s.AddSection("synth", "Procedural synthetic street sequence (dfo_synth).");
   s.AddInt("synth.seed", 1, "Seed of the world, the drive and the textures").Min(0);
-  s.AddInt("synth.frames", 500, "Number of frames").Min(1);
+  s.AddInt("synth.frames", 500, "Number of frames").Min(1).Max(100000);
   s.AddInt("synth.width", 416, "Image width in pixels").Min(16).Max(4096);
   s.AddInt("synth.height", 128, "Image height in pixels").Min(16).Max(4096);
   s.AddDouble("synth.fov_deg", 80.0, "Horizontal field of view in degrees")
@@ -110,7 +112,8 @@ ConfigSchema BuildSchema() {
   s.AddInt("learned.threads", 0,
            "LibTorch intra-op threads (process-wide); 0 = run.threads (0 there = all hardware "
            "threads)")
-      .Min(0);
+      .Min(0)
+      .Max(1024);
   s.AddInt("learned.num_levels", 0,
            "Pyramid levels the model must have; 0 = whatever the file has (at least "
            "tracker.num_levels with learned features)")
@@ -136,7 +139,9 @@ ConfigSchema BuildSchema() {
                "compositional, level 0 = finest.");
   s.AddInt("tracker.num_levels", 4, "Pyramid levels used (the paper: 4)").Min(1).Max(8);
   s.AddInt("tracker.patch_size", 3, "Patch side K in pixels (K x K patches), odd").Min(1).Max(7);
-  s.AddInt("tracker.max_points", 600, "Most points (patch centres) selected per level").Min(1);
+  s.AddInt("tracker.max_points", 600, "Most points (patch centres) selected per level")
+      .Min(1)
+      .Max(100000);
   s.AddInt("tracker.min_cell_px", 2, "Smallest point-selection grid cell side in pixels").Min(1);
   s.AddDouble("tracker.min_gradient", 0.05,
               "Least feature gradient norm of a selected point (z-score units per pixel)")
@@ -147,7 +152,8 @@ ConfigSchema BuildSchema() {
       .Min(0);
   s.AddIntList("tracker.max_iterations", {10, 15, 20, 30},
                "Gauss-Newton iteration limit per level, index = level (the last value repeats)")
-      .Min(1);
+      .Min(1)
+      .Max(1000);
   s.AddDoubleList("tracker.convergence_threshold", {1e-6, 1e-5, 1e-5, 1e-5},
                   "Stop a level when the update norm falls below this, index = level (the last "
                   "value repeats)")
@@ -247,7 +253,9 @@ ConfigSchema BuildSchema() {
   s.AddSection("window",
                "Sliding window of keyframes with feature-metric bundle adjustment (Ceres): "
                "points, patches, loss, solver.");
-  s.AddInt("window.max_keyframes", 7, "Keyframes kept in the window (DSO: 5-7)").Min(5);
+  s.AddInt("window.max_keyframes", 7, "Keyframes kept in the window (DSO: 5-7)")
+      .Min(5)
+      .Max(64);
   s.AddInt("window.pyramid_level", 0,
            "Pyramid level of the feature and depth maps the BA works on (0 = finest; coarser "
            "levels measured biased: windows drift); below tracker.num_levels")
@@ -256,7 +264,8 @@ ConfigSchema BuildSchema() {
            "Levenberg-Marquardt iterations of a warm-up solve of the newest keyframe on "
            "pyramid_level + 1 (a wider basin for poorly tracked keyframes; measured harmful with "
            "well-tracked ones); 0 = none")
-      .Min(0);
+      .Min(0)
+      .Max(1000);
   s.AddInt("window.patch_size", 3, "Patch side K in pixels at that level (K x K), odd")
       .Min(1)
       .Max(9);
@@ -277,7 +286,8 @@ ConfigSchema BuildSchema() {
       .OneOf({"sparse_schur", "dense_schur"});
   s.AddInt("window.max_iterations", 2,
            "Levenberg-Marquardt iterations per solve (up to two solves per keyframe)")
-      .Min(1);
+      .Min(1)
+      .Max(1000);
   s.AddDouble("window.max_solver_time_s", 0.1,
               "Wall-time limit of one solve in seconds (ignored with run.deterministic: true)")
       .GreaterThan(0);
@@ -360,7 +370,8 @@ ConfigSchema BuildSchema() {
   s.AddInt("run.threads", 2,
            "Worker threads of the frontend and of the window's Ceres solves (1 for Ceres with "
            "run.deterministic); 0 = all hardware threads")
-      .Min(0);
+      .Min(0)
+      .Max(1024);
   s.AddString("run.progress", "auto",
               "Progress line: auto = redrawn in place on a terminal, plain periodic lines "
               "otherwise; none = silent")

@@ -1,6 +1,10 @@
 #include "dfo_io/image_io.h"
 
+#include <array>
+#include <cctype>
 #include <cmath>
+#include <cstdint>
+#include <cstdlib>
 #include <cstring>
 #include <filesystem>
 #include <opencv2/core.hpp>
@@ -8,24 +12,232 @@
 #include <opencv2/imgproc.hpp>
 
 #include "dfo_core/error.h"
+#include "dfo_io/file_reader.h"
 #include "dfo_io/image_file_writer.h"
 
 namespace dfo::io {
 namespace {
+
+// What the file's header says, read before anything is decoded.
+struct ImageHeader {
+  std::string format;  // "PNG", "JPEG", ...; empty when not recognised
+  int64_t width = 0;
+  int64_t height = 0;
+};
+
+uint32_t Be32(const unsigned char* p) {
+  return (uint32_t{p[0]} << 24) | (uint32_t{p[1]} << 16) | (uint32_t{p[2]} << 8) | p[3];
+}
+uint32_t Be16(const unsigned char* p) { return (uint32_t{p[0]} << 8) | p[1]; }
+uint32_t Le32(const unsigned char* p) {
+  return (uint32_t{p[3]} << 24) | (uint32_t{p[2]} << 16) | (uint32_t{p[1]} << 8) | p[0];
+}
+
+uint32_t Crc32(const unsigned char* data, size_t n) {
+  static const std::array<uint32_t, 256> table = [] {
+    std::array<uint32_t, 256> t{};
+    for (uint32_t i = 0; i < 256; ++i) {
+      uint32_t c = i;
+      for (int k = 0; k < 8; ++k) c = (c & 1) ? 0xEDB88320u ^ (c >> 1) : c >> 1;
+      t[i] = c;
+    }
+    return t;
+  }();
+  uint32_t c = 0xFFFFFFFFu;
+  for (size_t i = 0; i < n; ++i) c = table[(c ^ data[i]) & 0xFF] ^ (c >> 8);
+  return c ^ 0xFFFFFFFFu;
+}
+
+// PNG: every chunk complete with a matching CRC, IHDR first and IEND present. Returns what is
+// wrong, or "" (then `h` holds the size).
+std::string CheckPng(const std::string& bytes, ImageHeader* h) {
+  const auto* b = reinterpret_cast<const unsigned char*>(bytes.data());
+  const size_t n = bytes.size();
+  size_t pos = 8;
+  bool first = true;
+  while (true) {
+    if (pos + 8 > n) return "truncated PNG (ends at byte " + std::to_string(n) + " before its IEND chunk)";
+    const uint32_t length = Be32(b + pos);
+    const std::string type(bytes, pos + 4, 4);
+    if (length > n || pos + 12 + length > n) {
+      return "truncated PNG (chunk " + type + " at byte " + std::to_string(pos) + " needs " +
+             std::to_string(length) + " bytes, the file ends at byte " + std::to_string(n) + ")";
+    }
+    if (Crc32(b + pos + 4, length + 4) != Be32(b + pos + 8 + length)) {
+      return "corrupt PNG (CRC mismatch in chunk " + type + " at byte " + std::to_string(pos) + ")";
+    }
+    if (first) {
+      if (type != "IHDR" || length < 8) return "corrupt PNG (the first chunk is not IHDR)";
+      h->width = Be32(b + pos + 8);
+      h->height = Be32(b + pos + 12);
+      first = false;
+    }
+    if (type == "IEND") return "";
+    pos += 12 + length;
+  }
+}
+
+// JPEG: walks the segments to the frame header (size) and the first scan; a complete file has
+// its end-of-image marker after the scan data (a truncated one has not: libjpeg would fill the
+// rest with grey and only warn).
+std::string CheckJpeg(const std::string& bytes, ImageHeader* h) {
+  const auto* b = reinterpret_cast<const unsigned char*>(bytes.data());
+  const size_t n = bytes.size();
+  size_t pos = 2;
+  while (true) {
+    while (pos < n && b[pos] == 0xFF && pos + 1 < n && b[pos + 1] == 0xFF) ++pos;  // fill bytes
+    if (pos + 4 > n) return "truncated JPEG (ends at byte " + std::to_string(n) + " in its header)";
+    if (b[pos] != 0xFF) {
+      return "corrupt JPEG (no segment marker at byte " + std::to_string(pos) + ")";
+    }
+    const unsigned marker = b[pos + 1];
+    if (marker == 0xD8 || marker == 0x01 || (marker >= 0xD0 && marker <= 0xD7)) {
+      pos += 2;  // markers without a length
+      continue;
+    }
+    if (marker == 0xD9) return "corrupt JPEG (end-of-image marker before any image data)";
+    const size_t length = Be16(b + pos + 2);
+    if (length < 2 || pos + 2 + length > n) {
+      return "truncated JPEG (segment at byte " + std::to_string(pos) + " needs " +
+             std::to_string(length) + " bytes, the file ends at byte " + std::to_string(n) + ")";
+    }
+    const bool frame_header = marker >= 0xC0 && marker <= 0xCF && marker != 0xC4 &&
+                              marker != 0xC8 && marker != 0xCC;
+    if (frame_header && length >= 7) {
+      h->height = Be16(b + pos + 5);
+      h->width = Be16(b + pos + 7);
+    }
+    if (marker == 0xDA) {  // start of scan: entropy-coded data follows
+      if (h->width == 0) return "corrupt JPEG (scan data before a frame header)";
+      const size_t end = bytes.rfind("\xFF\xD9");
+      if (end == std::string::npos || end < pos) {
+        return "truncated JPEG (no end-of-image marker after its image data; " +
+               std::to_string(n) + " bytes)";
+      }
+      return "";
+    }
+    pos += 2 + length;
+  }
+}
+
+// Binary or ASCII PGM/PPM: "P5 <w> <h> <max>" with comments.
+std::string CheckPnm(const std::string& bytes, ImageHeader* h) {
+  size_t pos = 2;
+  int64_t values[2] = {0, 0};
+  for (int64_t& v : values) {
+    while (pos < bytes.size() && (std::isspace(static_cast<unsigned char>(bytes[pos])) ||
+                                  bytes[pos] == '#')) {
+      if (bytes[pos] == '#') {
+        while (pos < bytes.size() && bytes[pos] != '\n') ++pos;
+      } else {
+        ++pos;
+      }
+    }
+    if (pos >= bytes.size() || !std::isdigit(static_cast<unsigned char>(bytes[pos]))) {
+      return "corrupt PNM header (no image size)";
+    }
+    while (pos < bytes.size() && std::isdigit(static_cast<unsigned char>(bytes[pos])) &&
+           v < (int64_t{1} << 40)) {
+      v = v * 10 + (bytes[pos++] - '0');
+    }
+  }
+  h->width = values[0];
+  h->height = values[1];
+  return "";
+}
+
+// TIFF: ImageWidth (256) and ImageLength (257) of the first image file directory.
+std::string CheckTiff(const std::string& bytes, ImageHeader* h) {
+  const auto* b = reinterpret_cast<const unsigned char*>(bytes.data());
+  const size_t n = bytes.size();
+  const bool big = bytes[0] == 'M';
+  auto u16 = [&](size_t p) { return big ? Be16(b + p) : (uint32_t{b[p + 1]} << 8) | b[p]; };
+  auto u32 = [&](size_t p) { return big ? Be32(b + p) : Le32(b + p); };
+  if (n < 8) return "truncated TIFF";
+  const size_t ifd = u32(4);
+  if (ifd + 2 > n) return "corrupt TIFF (directory beyond the end of the file)";
+  const size_t count = u16(ifd);
+  if (ifd + 2 + 12 * count > n) return "truncated TIFF (directory beyond the end of the file)";
+  for (size_t i = 0; i < count; ++i) {
+    const size_t e = ifd + 2 + 12 * i;
+    const uint32_t tag = u16(e);
+    const uint32_t type = u16(e + 2);
+    const uint32_t value = type == 3 ? u16(e + 8) : u32(e + 8);
+    if (tag == 256) h->width = value;
+    if (tag == 257) h->height = value;
+  }
+  if (h->width == 0 || h->height == 0) return "corrupt TIFF (no image size)";
+  return "";
+}
+
+// Reads the header of `bytes`; returns what is wrong with the file or "".
+std::string CheckHeader(const std::string& bytes, ImageHeader* h) {
+  auto starts = [&](const char* magic, size_t len) {
+    return bytes.size() >= len && std::memcmp(bytes.data(), magic, len) == 0;
+  };
+  if (starts("\x89PNG\r\n\x1a\n", 8)) {
+    h->format = "PNG";
+    return CheckPng(bytes, h);
+  }
+  if (starts("\xFF\xD8", 2)) {
+    h->format = "JPEG";
+    return CheckJpeg(bytes, h);
+  }
+  if (bytes.size() >= 3 && bytes[0] == 'P' && bytes[1] >= '1' && bytes[1] <= '6') {
+    h->format = "PNM";
+    return CheckPnm(bytes, h);
+  }
+  if (starts("BM", 2) && bytes.size() >= 26) {
+    h->format = "BMP";
+    const auto* b = reinterpret_cast<const unsigned char*>(bytes.data());
+    h->width = std::abs(static_cast<int32_t>(Le32(b + 18)));
+    h->height = std::abs(static_cast<int32_t>(Le32(b + 22)));
+    return "";
+  }
+  if (starts("II*\0", 4) || starts("MM\0*", 4)) {
+    h->format = "TIFF";
+    return CheckTiff(bytes, h);
+  }
+  return "";  // not recognised: OpenCV decides
+}
 
 cv::Mat Load(const std::string& path, int flags) {
   std::error_code ec;
   if (!std::filesystem::exists(path, ec)) {
     throw InputError("image file not found: " + path);
   }
+  const std::string bytes = ReadWholeFile(path, "image file", kMaxImageFileBytes);
+  if (bytes.empty()) throw InputError("cannot decode image " + path + ": the file is empty");
+  // The header is checked before decoding: a truncated or corrupt file is named (libpng and
+  // libjpeg would print their own lines, or fill a truncated JPEG with grey), and the size is
+  // capped before the decoder allocates it.
+  ImageHeader header;
+  const std::string problem = CheckHeader(bytes, &header);
+  if (!problem.empty()) throw InputError("cannot decode image " + path + ": " + problem);
+  if (!header.format.empty() &&
+      (header.width <= 0 || header.height <= 0 || header.width > kMaxImageSide ||
+       header.height > kMaxImageSide || header.width * header.height > kMaxImagePixels)) {
+    throw InputError("image " + path + ": its " + header.format + " header declares " +
+                     std::to_string(header.width) + " x " + std::to_string(header.height) +
+                     " pixels; images must be 1-" + std::to_string(kMaxImageSide) +
+                     " pixels a side and at most " + std::to_string(kMaxImagePixels / 1000000) +
+                     " megapixels");
+  }
   cv::Mat m;
   try {
-    m = cv::imread(path, flags);
+    const cv::Mat raw(1, static_cast<int>(bytes.size()), CV_8UC1,
+                      const_cast<char*>(bytes.data()));
+    m = cv::imdecode(raw, flags);
   } catch (const cv::Exception& e) {
     throw InputError("cannot decode image " + path + ": " + e.what());
   }
   if (m.empty()) {
     throw InputError("cannot decode image " + path + " (corrupt or not an image)");
+  }
+  if (int64_t{m.cols} * m.rows > kMaxImagePixels) {
+    throw InputError("image " + path + " is " + std::to_string(m.cols) + " x " +
+                     std::to_string(m.rows) + " pixels; at most " +
+                     std::to_string(kMaxImagePixels / 1000000) + " megapixels");
   }
   return m;
 }
@@ -106,7 +318,17 @@ void WriteDepthPng(const std::string& path, const ImageF& depth_m, double scale)
 }
 
 void ReadImageSize(const std::string& path, int* width, int* height) {
-  const cv::Mat m = Load(path, cv::IMREAD_UNCHANGED);
+  std::error_code ec;
+  if (!std::filesystem::exists(path, ec)) throw InputError("image file not found: " + path);
+  const std::string bytes = ReadWholeFile(path, "image file", kMaxImageFileBytes);
+  ImageHeader header;
+  if (CheckHeader(bytes, &header).empty() && !header.format.empty() && header.width > 0 &&
+      header.height > 0 && header.width <= kMaxImageSide && header.height <= kMaxImageSide) {
+    *width = static_cast<int>(header.width);
+    *height = static_cast<int>(header.height);
+    return;
+  }
+  const cv::Mat m = Load(path, cv::IMREAD_UNCHANGED);  // names what is wrong, or decodes it
   *width = m.cols;
   *height = m.rows;
 }

@@ -2,11 +2,19 @@
 #ifndef DFO_IO_IMAGE_IO_H_
 #define DFO_IO_IMAGE_IO_H_
 
+#include <cstdint>
 #include <string>
 
 #include "dfo_core/image.h"
 
 namespace dfo::io {
+
+// Every reader checks the file's header (PNG, JPEG, PGM/PPM, BMP, TIFF) before decoding: a
+// truncated or corrupt file (a PNG chunk's CRC, a JPEG without its end-of-image marker) is an
+// InputError naming the file and the fault, and a declared size above these caps is refused
+// before anything is allocated (8K UHD video is 33 megapixels).
+inline constexpr int64_t kMaxImageSide = 32768;
+inline constexpr int64_t kMaxImagePixels = 50000000;
 
 // 8-bit grayscale (colour files are converted). Throws dfo::InputError when missing or unreadable.
 ImageU8 ReadGray(const std::string& path);
@@ -26,7 +34,8 @@ void WriteU16(const std::string& path, const ImageU16& image);
 // beyond the 16-bit range are written as 0 (no depth).
 void WriteDepthPng(const std::string& path, const ImageF& depth_m, double scale);
 
-// Width and height of an image file without decoding all of it where possible.
+// Width and height of an image file from its header (decoded only when the format is not one
+// of those above).
 void ReadImageSize(const std::string& path, int* width, int* height);
 
 // Area-averaging resize (for shrinking) / bilinear (for enlarging) of 8-bit images.

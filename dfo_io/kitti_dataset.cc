@@ -1,5 +1,6 @@
 #include "dfo_io/kitti_dataset.h"
 
+#include <algorithm>
 #include <cerrno>
 #include <cmath>
 #include <cstdlib>
@@ -35,6 +36,38 @@ bool IsDir(const fs::path& p) {
 bool IsFile(const fs::path& p) {
   std::error_code ec;
   return fs::is_regular_file(p, ec);
+}
+
+// KITTI numbers its images 000000, 000001, ...: names the numbers missing between the first
+// and the last (at most five), or "" when the names are not all numbers or none is missing.
+std::string MissingImageNumbers(const std::vector<std::string>& images) {
+  std::vector<long long> numbers;
+  size_t digits = 0;
+  for (const std::string& image : images) {
+    const std::string stem = fs::path(image).stem().string();
+    if (stem.empty() || stem.size() > 12 ||
+        !std::all_of(stem.begin(), stem.end(), [](char c) { return c >= '0' && c <= '9'; })) {
+      return "";
+    }
+    digits = stem.size();
+    numbers.push_back(std::stoll(stem));
+  }
+  std::sort(numbers.begin(), numbers.end());
+  std::string missing;
+  int count = 0;
+  for (size_t i = 1; i < numbers.size(); ++i) {
+    for (long long n = numbers[i - 1] + 1; n < numbers[i]; ++n) {
+      if (++count <= 5) {
+        std::string name = std::to_string(n);
+        if (name.size() < digits) name.insert(0, digits - name.size(), '0');
+        missing += (missing.empty() ? "" : ", ") + name;
+      }
+    }
+  }
+  if (count == 0) return "";
+  return "; missing between " + fs::path(images.front()).stem().string() + " and " +
+         fs::path(images.back()).stem().string() + ": " + missing +
+         (count > 5 ? " and " + std::to_string(count - 5) + " more" : "");
 }
 
 }  // namespace
@@ -115,8 +148,11 @@ std::vector<int64_t> ReadKittiTimes(const std::string& path) {
     if (!(tokens >> token)) continue;
     const std::string where = path + ":" + std::to_string(line_number);
     int64_t ns = 0;
-    if (!ParseSecondsToNs(token, &ns) || (tokens >> extra)) {
+    if (tokens >> extra) {
       throw InputError(where + ": expected one time in seconds, found '" + line + "'");
+    }
+    if (!ParseSecondsToNs(token, &ns)) {
+      throw InputError(where + ": time '" + token + "' " + WhyNotSeconds(token));
     }
     if (!stamps.empty() && ns <= stamps.back()) {
       throw InputError(where + ": timestamps going backwards: " + token +
@@ -176,7 +212,7 @@ Sequence OpenKittiSequence(const DatasetOptions& options) {
   if (stamps.size() != images.size()) {
     throw InputError(times_path + ": " + std::to_string(stamps.size()) +
                      " timestamps, expected one per image: " + std::to_string(images.size()) +
-                     " images in " + image_dir);
+                     " images in " + image_dir + MissingImageNumbers(images));
   }
 
   // Depth folder of this camera (see the header for camera 2 without depth_2).

@@ -3,6 +3,7 @@
 #include <yaml-cpp/yaml.h>
 
 #include <algorithm>
+#include <cstdio>
 #include <cctype>
 #include <filesystem>
 #include <fstream>
@@ -12,6 +13,7 @@
 #include <thread>
 
 #include "dfo_core/error.h"
+#include "dfo_io/file_reader.h"
 #include "dfo_io/config.h"
 #include "dfo_io/config_schema.h"
 
@@ -29,6 +31,14 @@ const std::vector<std::string> kSlurmKeys = {"partition", "time", "cpus_per_task
 int Line(const YAML::Node& node) {
   const YAML::Mark mark = node.Mark();
   return mark.is_null() ? 0 : mark.line + 1;
+}
+
+// A count that may exceed every integer type, as an integer when it is exact.
+std::string FormatCount(double n) {
+  if (n < 1e15) return std::to_string(static_cast<long long>(n));
+  char text[32];
+  std::snprintf(text, sizeof(text), "%.3g", n);
+  return text;
 }
 
 // Reads one sweep file; every error names the file and line.
@@ -77,6 +87,12 @@ class SweepParser {
       for (auto& s : List(top["list"], &spec.swept_keys)) settings.push_back(std::move(s));
     }
     if (settings.empty()) settings.emplace_back();  // one run per sequence with the base settings
+    const double runs = static_cast<double>(settings.size()) * spec.sequences.size();
+    if (runs > kMaxSweepRuns) {
+      Fail(Line(root), FormatCount(runs) + " runs (" + std::to_string(settings.size()) +
+                           " settings x " + std::to_string(spec.sequences.size()) +
+                           " sequences); a sweep runs at most " + std::to_string(kMaxSweepRuns));
+    }
     spec.settings = Settings(settings, spec.swept_keys);
     return spec;
   }
@@ -296,6 +312,13 @@ class SweepParser {
       NoteKey(key, keys);
       axes.push_back(std::move(values));
     }
+    // The product is checked before it is built: a grid of a million runs is a typo, not a sweep.
+    double product = 1.0;
+    for (const auto& axis : axes) product *= static_cast<double>(axis.size());
+    if (product > kMaxSweepRuns) {
+      Fail(Line(map), "grid: " + FormatCount(product) + " combinations; a sweep runs at most " +
+                          std::to_string(kMaxSweepRuns));
+    }
     std::vector<std::vector<SweepOverride>> combos(1);
     for (const auto& axis : axes) {
       std::vector<std::vector<SweepOverride>> next;
@@ -380,13 +403,8 @@ SweepSpec LoadSweepSpecFromString(const std::string& text, const std::string& na
 }
 
 SweepSpec LoadSweepSpec(const std::string& path) {
-  std::error_code ec;
-  if (!fs::is_regular_file(path, ec)) throw InputError("sweep file not found: " + path);
-  std::ifstream file(path);
-  if (!file) throw InputError("cannot read sweep file " + path);
-  std::stringstream buffer;
-  buffer << file.rdbuf();
-  return LoadSweepSpecFromString(buffer.str(), path, fs::path(path).parent_path().string());
+  return LoadSweepSpecFromString(ReadWholeFile(path, "sweep file", kMaxTextFileBytes), path,
+                                 fs::path(path).parent_path().string());
 }
 
 std::vector<SweepRun> ExpandSweep(const SweepSpec& spec) {

@@ -70,6 +70,10 @@ struct SweepSlurm {
   std::vector<std::string> extra;  // further sbatch options, e.g. "--constraint=avx512"
 };
 
+// The most runs (settings x sequences) one sweep file may ask for; more is refused, naming the
+// count, before the runs are listed.
+inline constexpr int kMaxSweepRuns = 100000;
+
 // A whole sweep file.
 struct SweepSpec {
   std::string path;         // the sweep file

@@ -12,9 +12,11 @@ ConfigSchema BuildTrainSchema() {
 
   s.AddSection("network", "Shapes and widths of both networks (stored in the model file).");
   s.AddInt("network.input_width", 208, "Training width in pixels (divisible by 2^(levels-1))")
-      .GreaterThan(0);
+      .GreaterThan(0)
+      .Max(4096);
   s.AddInt("network.input_height", 64, "Training height in pixels (divisible by 2^(levels-1))")
-      .GreaterThan(0);
+      .GreaterThan(0)
+      .Max(4096);
   s.AddInt("network.num_levels", 4, "Pyramid levels of both networks (the paper: 4)").Min(1).Max(6);
   s.AddIntList("network.channels", {8, 8, 16, 16}, "Feature channels per level, finest first")
       .Min(1)
@@ -43,7 +45,9 @@ ConfigSchema BuildTrainSchema() {
                "FeatureNet decoder widths per output level, finest first")
       .Min(1)
       .Max(1024);
-  s.AddInt("network.reconstruction_width", 16, "Hidden width of the reconstruction heads").Min(1);
+  s.AddInt("network.reconstruction_width", 16, "Hidden width of the reconstruction heads")
+      .Min(1)
+      .Max(1024);
 
   s.AddSection("loss", "Loss weights (DFO paper: lambda_sm 0.1, lambda_sp 0.01, lambda_ae 0.01).");
   s.AddDouble("loss.ssim_weight", 0.85, "Weight of DSSIM/2 in the appearance mix (L1: 1 - it)")
@@ -95,10 +99,13 @@ ConfigSchema BuildTrainSchema() {
   s.AddDouble("augment.color_max", 1.1, "Upper bound of those factors").GreaterThan(0);
 
   s.AddSection("gn", "Differentiable Gauss-Newton alignment giving the training poses.");
-  s.AddInt("gn.max_points", 300, "Most patches per level (tracker.max_points)").Min(1);
+  s.AddInt("gn.max_points", 300, "Most patches per level (tracker.max_points)")
+      .Min(1)
+      .Max(100000);
   s.AddIntList("gn.max_iterations", {6, 6, 8, 10},
                "Unrolled iterations per level, finest first (last repeats)")
-      .Min(1);
+      .Min(1)
+      .Max(100);
   s.AddDouble("gn.min_gradient", 0.05, "Smallest feature gradient of a selected point").Min(0);
   s.AddBool("gn.outlier_rule", true, "Apply the paper's 0.5 (median + max) outlier rule");
   s.AddBool("gn.use_masks", false,
@@ -125,7 +132,7 @@ ConfigSchema BuildTrainSchema() {
               "zero biases: 0.2 m, next to the 0.1 m floor)")
       .Min(0)
       .Max(99.9);
-  s.AddInt("train.batch_size", 4, "Snippets per iteration").Min(1);
+  s.AddInt("train.batch_size", 4, "Snippets per iteration").Min(1).Max(1024);
   s.AddDouble("train.static_threshold", 0.01,
               "Skip snippets whose frames differ by less (mean absolute grey, 0..1)")
       .Min(0);

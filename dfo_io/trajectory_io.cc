@@ -90,6 +90,13 @@ std::string TrajectoryFormatName(TrajectoryFormat format) {
   return format == TrajectoryFormat::kKitti ? "kitti" : "tum";
 }
 
+std::string WhyNotSeconds(const std::string& text) {
+  char* end = nullptr;
+  const double v = std::strtod(text.c_str(), &end);
+  if (text.empty() || end != text.c_str() + text.size() || std::isnan(v)) return "is not a number";
+  return "is beyond the range of nanosecond time stamps (|t| < 9.2e9 s)";
+}
+
 bool ParseSecondsToNs(const std::string& text, int64_t* ns) {
   size_t i = 0;
   bool negative = false;
@@ -193,8 +200,8 @@ Trajectory ReadTumTrajectory(const std::string& path) {
     int64_t stamp = 0;
     ParseNumber(tokens[0], path, line_number, 1);  // uniform message for non-numbers
     if (!ParseSecondsToNs(tokens[0], &stamp)) {
-      throw InputError(Where(path, line_number) + "timestamp '" + tokens[0] +
-                       "' is out of range, expected seconds within +-9.2e9");
+      throw InputError(Where(path, line_number) + "timestamp '" + tokens[0] + "' " +
+                       WhyNotSeconds(tokens[0]));
     }
     double v[7];
     for (int k = 0; k < 7; ++k) v[k] = ParseNumber(tokens[k + 1], path, line_number, k + 2);
@@ -238,7 +245,8 @@ std::vector<int64_t> ReadTimestamps(const std::string& path) {
     ParseNumber(tokens[0], path, line_number, 1);
     int64_t ns = 0;
     if (!ParseSecondsToNs(tokens[0], &ns)) {
-      throw InputError(Where(path, line_number) + "time '" + tokens[0] + "' is out of range");
+      throw InputError(Where(path, line_number) + "time '" + tokens[0] + "' " +
+                       WhyNotSeconds(tokens[0]));
     }
     stamps.push_back(ns);
   }

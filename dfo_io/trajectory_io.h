@@ -79,6 +79,9 @@ void WriteTrajectory(const std::string& path, const Trajectory& trajectory,
 // the nanosecond); exponent forms go through strtod. Returns false when `text` is not a finite
 // number.
 bool ParseSecondsToNs(const std::string& text, int64_t* ns);
+// Why ParseSecondsToNs(text) failed, for messages: "is not a number" or "is beyond the range of
+// nanosecond time stamps (|t| < 9.2e9 s)".
+std::string WhyNotSeconds(const std::string& text);
 
 // Formats nanoseconds as decimal seconds, exactly, with at least 6 decimals
 // (1305031102160407000 -> "1305031102.160407").

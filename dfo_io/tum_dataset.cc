@@ -50,7 +50,7 @@ std::vector<TumListEntry> ReadTumFileList(const std::string& path) {
     // the nanosecond (a double only resolves ~0.2 us there).
     int64_t ns = 0;
     if (!ParseSecondsToNs(stamp, &ns)) {
-      throw InputError(where + ": non-numeric timestamp '" + stamp + "'");
+      throw InputError(where + ": timestamp '" + stamp + "' " + WhyNotSeconds(stamp));
     }
     TumListEntry entry{ns, name, line_number};
     if (!entries.empty() && entry.timestamp_ns <= entries.back().timestamp_ns) {

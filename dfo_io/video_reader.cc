@@ -8,6 +8,7 @@
 #include <utility>
 
 #include "dfo_core/error.h"
+#include "dfo_io/image_io.h"
 
 namespace dfo::io {
 namespace fs = std::filesystem;
@@ -60,6 +61,17 @@ VideoIndex VideoReader::Scan(int max_frames) {
   cv::VideoCapture& cap = capture_->capture;
   bool ended = false;
   try {
+    // The size the container declares is checked before the first frame is decoded.
+    const double declared_width = cap.get(cv::CAP_PROP_FRAME_WIDTH);
+    const double declared_height = cap.get(cv::CAP_PROP_FRAME_HEIGHT);
+    if (declared_width > kMaxImageSide || declared_height > kMaxImageSide ||
+        declared_width * declared_height > static_cast<double>(kMaxImagePixels)) {
+      throw InputError("video file " + path_ + ": its frames are " +
+                       std::to_string(static_cast<long long>(declared_width)) + " x " +
+                       std::to_string(static_cast<long long>(declared_height)) +
+                       " pixels; at most " + std::to_string(kMaxImagePixels / 1000000) +
+                       " megapixels and " + std::to_string(kMaxImageSide) + " a side");
+    }
     while (max_frames < 0 || static_cast<int>(index.stamps_ms.size()) < max_frames) {
       if (!cap.grab()) {
         ended = true;

@@ -2,10 +2,14 @@
 
 #include <unistd.h>
 
+#include <glog/logging.h>
+
+#include <cctype>
 #include <cstdlib>
 #include <exception>
 #include <fstream>
 #include <iostream>
+#include <new>
 
 namespace dfo::apps {
 
@@ -18,9 +22,40 @@ bool SplitFlagValue(std::string* flag, std::string* value) {
   return true;
 }
 
+namespace {
+
+// Lines that Ceres or LibTorch log through glog: "<program>: ceres warning (file.cc:12) <text>"
+// instead of glog's own header and its "Logging before InitGoogleLogging()" line.
+void LibraryLogPrefix(std::ostream& out, const google::LogMessageInfo& info, void* data) {
+  std::string severity = info.severity;
+  for (char& c : severity) c = static_cast<char>(std::tolower(static_cast<unsigned char>(c)));
+  const std::string file = info.filename;
+  const bool torch = file.find("c10") != std::string::npos ||
+                     file.find("torch") != std::string::npos ||
+                     file.find("aten") != std::string::npos;
+  out << *static_cast<const std::string*>(data) << ": " << (torch ? "LibTorch " : "library ")
+      << severity << " (" << file.substr(file.find_last_of('/') + 1) << ":" << info.line_number
+      << ")";
+}
+
+void InitLibraryLogging(const std::string& program) {
+  if (google::IsGoogleLoggingInitialized()) return;
+  static const std::string name = program;
+  FLAGS_logtostderr = true;  // never log files in /tmp
+  FLAGS_minloglevel = google::GLOG_WARNING;
+  google::InitGoogleLogging(name.c_str(), &LibraryLogPrefix, const_cast<std::string*>(&name));
+}
+
+}  // namespace
+
 int RunMain(const std::string& program, const std::function<int()>& body, bool hint_help) {
+  InitLibraryLogging(program);
   try {
     return body();
+  } catch (const std::bad_alloc&) {
+    std::cerr << program << ": error: out of memory (a size in the input or the configuration "
+                            "beyond what this machine holds)\n";
+    return 1;
   } catch (const UsageError& e) {
     std::cerr << program << ": error: " << e.what();
     if (hint_help) std::cerr << " (see " << program << " --help)";

@@ -151,6 +151,19 @@ SequenceRunResult RunSequence(const FrameProvider& provider, Odometry* odometry,
       record.kf_from_cam = out.kf_from_cam;
       record.tracking_depth = out.tracking_depth;
       lost += record.tracked.status == TrackingStatus::kLost ? 1 : 0;
+      const LostCause cause = record.tracked.lost_cause;
+      const LostCause previous_cause =
+          result.frames.empty() ? LostCause::kNone : result.frames.back().tracked.lost_cause;
+      if ((cause == LostCause::kNoDepth || cause == LostCause::kFewPoints) &&
+          cause != previous_cause && options.log_stream != nullptr) {
+        std::fprintf(options.log_stream,
+                     "%s: warning: frame %d cannot start a tracking reference: %s; frames are "
+                     "lost until one can (frames.csv lost_cause)\n",
+                     options.label.c_str(), record.tracked.index,
+                     cause == LostCause::kNoDepth
+                         ? "its depth has too few valid pixels (a depth map of zeros or NaN?)"
+                         : "too few textured points with depth");
+      }
       record.solved_keyframe = out.solved_keyframe;
       if (out.keyframe) {
         const KeyframeRecord& kf = odometry->keyframes().back();
@@ -349,6 +362,13 @@ io::JsonValue MakeRunSummary(const SequenceRunResult& result, const RunEvaluatio
   s.Set("frames_degraded", result.CountStatus(TrackingStatus::kDegraded));
   s.Set("frames_lost", result.CountStatus(TrackingStatus::kLost));
   s.Set("frames_reference", result.CountStatus(TrackingStatus::kReference));
+  io::JsonValue causes = io::JsonValue::Object();
+  for (const LostCause cause : {LostCause::kTracking, LostCause::kNoDepth, LostCause::kFewPoints}) {
+    int64_t n = 0;
+    for (const FrameRecord& f : result.frames) n += f.tracked.lost_cause == cause ? 1 : 0;
+    causes.Set(LostCauseName(cause), n);
+  }
+  s.Set("frames_lost_by_cause", causes);
   int references = 0;
   for (const FrameRecord& f : result.frames) references += f.tracked.is_new_reference ? 1 : 0;
   s.Set("references", references);
@@ -425,7 +445,7 @@ std::vector<std::string> RemoveRunOutputs(const std::string& output_dir) {
 std::string FramesCsvHeader() {
   return "index,timestamp_s,status,reference_index,new_reference,num_points,num_inliers,rmse,"
          "iterations,keyframe,keyframe_reason,load_ms,features_ms,depth_ms,tracking_ms,backend_ms,"
-         "total_ms,tracking_depth,keyframe_depth_scale\n";
+         "total_ms,tracking_depth,keyframe_depth_scale,lost_cause\n";
 }
 
 std::string FramesCsvLine(const FrameRecord& f) {
@@ -441,7 +461,8 @@ std::string FramesCsvLine(const FrameRecord& f) {
          "," + (f.keyframe ? "1" : "0") + "," + reason + "," + Csv(f.load_ms, 3) + "," +
          Csv(f.features_ms, 3) + "," + Csv(f.depth_ms, 3) + "," + Csv(f.tracking_ms, 3) + "," +
          Csv(f.backend_ms, 3) + "," + Csv(f.total_ms, 3) + "," + f.tracking_depth + "," +
-         (f.keyframe_depth_scale > 0.0 ? Csv(f.keyframe_depth_scale, 6) : std::string()) + "\n";
+         (f.keyframe_depth_scale > 0.0 ? Csv(f.keyframe_depth_scale, 6) : std::string()) + "," +
+         LostCauseName(t.lost_cause) + "\n";
 }
 
 void WriteFramesCsv(const std::string& path, const SequenceRunResult& result) {

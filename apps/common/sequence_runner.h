@@ -30,7 +30,8 @@
 //                         tracking_depth (window, source or scaled_source: what the frame was
 //                         tracked against; empty for frames not tracked), keyframe_depth_scale
 //                         (keyframes in the window: the median ratio of the window's depth to the
-//                         depth source's map seen from the keyframe; empty otherwise or unknown)
+//                         depth source's map seen from the keyframe; empty otherwise or unknown),
+//                         lost_cause (lost frames: tracking, no_depth or few_points; LostCause)
 //   summary.json          see MakeRunSummary
 //   frontend_trajectory.png  top view of ground truth and Sim3-aligned estimate coloured by ATE
 //                         (only when at least 3 processed frames have ground truth and plot);

@@ -68,17 +68,7 @@ void ExpectOneLineError(const CommandResult& r, const std::vector<std::string>& 
 // A fresh copy of a kFrames-frame synthetic sequence (KITTI layout, ground-truth depth and poses)
 // in its own temporary folder; rendered by dfo_synth once per test process.
 std::string MakeSequence(const std::string& tag) {
-  static std::string base;
-  if (base.empty()) {
-    base = test::MakeTempDir("dfo_run_base");
-    const CommandResult r =
-        RunCommand(DFO_SYNTH_EXE, "--output " + base + " --frames " + std::to_string(kFrames) +
-                                      " --seed 1 --threads 2");
-    if (r.status != 0) throw std::runtime_error("dfo_synth failed: " + r.err);
-  }
-  const std::string dir = test::MakeTempDir(tag);
-  fs::copy(base, dir, fs::copy_options::recursive | fs::copy_options::overwrite_existing);
-  return dir;
+  return test::CopyOfSyntheticSequence(DFO_SYNTH_EXE, kFrames, tag);
 }
 
 std::string FramePng(const std::string& root, const std::string& folder, int index) {
@@ -483,6 +473,15 @@ TEST(DfoRunBadInput, DepthFullOfZerosIsLostNotACrash) {
   EXPECT_EQ(s["frames_ok"].AsInt(), 0);
   EXPECT_EQ(s["frames_degraded"].AsInt(), 0);
   EXPECT_GE(s["frames_lost"].AsInt(), 1);
+  // Each lost frame says why, and stderr says it once.
+  EXPECT_EQ(s["frames_lost_by_cause"]["no_depth"].AsInt(), s["frames_lost"].AsInt());
+  EXPECT_NE(r.err.find("warning: frame 0 cannot start a tracking reference: its depth has too few "
+                       "valid pixels"),
+            std::string::npos)
+      << r.err;
+  const std::string csv = ReadFile(out + "/frames.csv");
+  EXPECT_NE(csv.find(",lost_cause\n"), std::string::npos);
+  EXPECT_NE(csv.find(",no_depth\n"), std::string::npos);
   // No frame tracked: no ATE, and the summary says why.
   EXPECT_TRUE(s["frontend"].IsNull());
   EXPECT_TRUE(s["windowed"].IsNull());

@@ -10,7 +10,7 @@ namespace dfo::test {
 // The committed models/default.dfo on the first 20 frames of the held-out synthetic seed 1
 // (never trained on), median-scaled AbsRel of its depth:
 //   build/apps/dfo_synth --output D --sequence 01 --seed 1 --frames 20
-//   build/apps/dfo_train --config configs/train_default.yaml --output X --write-depth P \
+//   build/apps/dfo_train --config configs/train_default.yaml --output X --write-depth P
 //     --sequence D/sequences/01 --model models/default.dfo
 //   build/apps/dfo_eval depth --gt D/sequences/01/depth_0 --pred P --median-scaling
 // Measured 0.167 (inference is deterministic; the margin covers other CPUs' float rounding).
@@ -19,7 +19,7 @@ constexpr double kDefaultModelHeldOutAbsRelBound = 0.180;
 
 // The demo (`make demo`'s first run): the default synthetic sequence (dfo_synth defaults: seed 1,
 // 500 frames, 416 x 128) through configs/demo.yaml, Sim3 ATE RMSE in metres:
-//   build/apps/dfo_synth --output D && build/apps/dfo_run --config configs/demo.yaml \
+//   build/apps/dfo_synth --output D && build/apps/dfo_run --config configs/demo.yaml
 //     --set dataset.path=D --output OUT      (summary.json frontend / windowed ate_rmse)
 // Measured 0.2012 frontend-only and 0.4292 windowed, identical with run.threads 1 and 2
 // (run.deterministic); the bounds leave ~25 % for other CPUs' rounding, which moves windowed

@@ -8,7 +8,10 @@
 #include <cstdlib>
 #include <filesystem>
 #include <fstream>
+#include <map>
+#include <mutex>
 #include <sstream>
+#include <stdexcept>
 #include <string>
 
 namespace dfo::test {
@@ -51,6 +54,31 @@ CommandResult RunCommand(const std::string& exe, const std::string& args) {
   ss << err.rdbuf();
   result.err = ss.str();
   return result;
+}
+
+std::string CopyOfSyntheticSequence(const std::string& synth_exe, int frames,
+                                    const std::string& tag) {
+  static std::mutex mutex;
+  static std::map<int, std::string> rendered;
+  std::string base;
+  {
+    std::lock_guard<std::mutex> lock(mutex);
+    std::string& dir = rendered[frames];
+    if (dir.empty()) {
+      const std::string target = MakeTempDir("synthetic_" + std::to_string(frames));
+      const CommandResult r = RunCommand(
+          synth_exe, "--output " + target + " --frames " + std::to_string(frames) +
+                         " --seed 1 --threads 2");
+      if (r.status != 0) throw std::runtime_error("dfo_synth failed: " + r.err);
+      dir = target;
+    }
+    base = dir;
+  }
+  const std::string copy = MakeTempDir(tag);
+  std::filesystem::copy(base, copy,
+                        std::filesystem::copy_options::recursive |
+                            std::filesystem::copy_options::overwrite_existing);
+  return copy;
 }
 
 }  // namespace dfo::test
