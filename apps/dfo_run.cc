@@ -35,6 +35,7 @@
 #include "dfo_io/config.h"
 #include "dfo_io/config_schema.h"
 #include "dfo_io/dataset.h"
+#include "dfo_io/file_writer.h"
 
 namespace dfo {
 namespace {
@@ -327,11 +328,7 @@ int Run(const Args& args) {
   }
 
   const std::string output_dir = config.GetString("run.output_dir");
-  std::error_code ec;
-  std::filesystem::create_directories(output_dir, ec);
-  if (!std::filesystem::is_directory(output_dir, ec)) {
-    throw InputError("cannot create output folder " + output_dir);
-  }
+  io::CreateFolder(output_dir, "output folder");
   // A reused folder: the outputs of an earlier run (perhaps of another run.mode) go first.
   const std::vector<std::string> stale = apps::RemoveRunOutputs(output_dir);
   // Written first, so that even a run that fails half-way can be repeated.

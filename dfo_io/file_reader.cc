@@ -19,7 +19,21 @@ std::string ReadWholeFile(const std::string& path, const std::string& what,
     throw InputError(what + " " + path + " is a folder; expected a file");
   }
   if (!fs::is_regular_file(status)) {
-    throw InputError(what + " " + path + " is not a regular file (a device, pipe or socket)");
+    // A pipe (`--config <(...)`) or a device: read up to the cap.
+    std::ifstream stream(path, std::ios::binary);
+    if (!stream) {
+      throw InputError("cannot read " + what + " " + path + ": " + std::strerror(errno));
+    }
+    std::string bytes;
+    char buffer[65536];
+    while (stream.read(buffer, sizeof(buffer)) || stream.gcount() > 0) {
+      bytes.append(buffer, static_cast<std::size_t>(stream.gcount()));
+      if (bytes.size() > max_bytes) {
+        throw InputError(what + " " + path + " holds more than " + std::to_string(max_bytes) +
+                         " bytes, the most that is read (the wrong file?)");
+      }
+    }
+    return bytes;
   }
   const std::uintmax_t size = fs::file_size(path, ec);
   if (ec) throw InputError("cannot read " + what + " " + path + ": " + ec.message());

@@ -14,9 +14,9 @@ namespace dfo::io {
 inline constexpr std::size_t kMaxTextFileBytes = 1 << 20;           // YAML (configs: ~16 KB)
 inline constexpr std::size_t kMaxImageFileBytes = 256u << 20;       // one image file
 
-// Returns the bytes of `path`. Throws InputError naming `what` and `path` when it is missing, a
-// folder, not a regular file, larger than `max_bytes` (with its size), or unreadable (with the
-// system's reason).
+// Returns the bytes of `path` (a file, or a pipe or device read up to the cap). Throws
+// InputError naming `what` and `path` when it is missing, a folder, larger than `max_bytes` (with
+// its size), or unreadable (with the system's reason).
 std::string ReadWholeFile(const std::string& path, const std::string& what,
                           std::size_t max_bytes);
 

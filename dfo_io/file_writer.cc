@@ -46,4 +46,15 @@ void CheckFileWritable(const std::string& path, const std::string& what) {
   std::remove(tmp.c_str());
 }
 
+void CreateFolder(const std::string& path, const std::string& what) {
+  namespace fs = std::filesystem;
+  std::error_code ec;
+  fs::create_directories(path, ec);
+  std::error_code check;
+  if (fs::is_directory(path, check)) return;
+  std::string reason = ec ? ec.message() : "unknown reason";
+  if (fs::exists(path, check)) reason = "a file of that name exists";
+  throw InputError("cannot create " + what + " " + path + ": " + reason);
+}
+
 }  // namespace dfo::io

@@ -19,6 +19,10 @@ void WriteFileAtomically(const std::string& path, const std::string& bytes,
 // removed). Throws InputError "<what> <path>: cannot be written (<reason>)" otherwise.
 void CheckFileWritable(const std::string& path, const std::string& what);
 
+// Creates folder `path` and its parents when missing. Throws InputError "cannot create <what>
+// <path>: <reason>" (a file of that name exists, or the system's reason) otherwise.
+void CreateFolder(const std::string& path, const std::string& what);
+
 }  // namespace dfo::io
 
 #endif  // DFO_IO_FILE_WRITER_H_

@@ -524,11 +524,7 @@ void LiveRunFiles::Append(const FrameRecord& frame, const SE3d& frontend_world_f
 RunOutputs WriteRunOutputs(const SequenceRunResult& result, const std::string& output_dir,
                            bool plot) {
   RunOutputs out;
-  std::error_code ec;
-  fs::create_directories(output_dir, ec);
-  if (!fs::is_directory(output_dir, ec)) {
-    throw InputError("cannot create output folder " + output_dir);
-  }
+  io::CreateFolder(output_dir, "output folder");
   const auto path = [&](const char* name) { return (fs::path(output_dir) / name).string(); };
   // Each file on its own: one that cannot be written is reported, the others are still written.
   const auto write = [&](const std::string& file, const std::function<void()>& body) {
