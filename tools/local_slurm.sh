@@ -4,18 +4,26 @@
 # this host (its CPUs and memory from `slurmd -C`, free ports, proctrack/linuxproc, no cgroups),
 # everything under DIR. Nothing of the system's own munge or Slurm set-up is used or touched.
 #
+#   tools/local_slurm.sh check       # can a local Slurm run here (root, programs installed)?
 #   tools/local_slurm.sh start DIR   # last line: SLURM_CONF=DIR/slurm.conf (export it for sbatch)
 #   tools/local_slurm.sh stop DIR    # stops the three daemons started for DIR
 #
 # Needs root (slurmd runs jobs as their user) and the Debian packages slurm-wlm and munge.
-# Exit status of start: 0 running; 3 cannot run here (not root, programs missing), with the
-# reason on the last line; 4 a daemon did not come up (log tails printed); 2 usage.
+# Exit status of check and start: 0 can run / running; 3 cannot run here (not root, or a program
+# of slurm-wlm or munge missing: which, on the last line). Of start: 4 Slurm and munge are
+# installed and this is root, but the cluster did not come up (a folder or the munge key cannot
+# be made, a daemon does not start, the node does not become idle): the daemons' log tails, then
+# the reason on the last line. 2 usage.
 set -u
 
-usage() { echo "usage: $0 start|stop DIR" >&2; exit 2; }
-[ $# -eq 2 ] || usage
-cmd=$1
-dir=$2
+usage() { echo "usage: $0 check | start DIR | stop DIR" >&2; exit 2; }
+cmd=${1:-}
+case "$cmd" in
+  check) [ $# -eq 1 ] || usage ;;
+  start|stop) [ $# -eq 2 ] || usage ;;
+  *) usage ;;
+esac
+dir=${2:-}
 
 stop() {
   if [ -f "$dir/slurm.conf" ] && command -v scontrol >/dev/null 2>&1; then
@@ -40,26 +48,45 @@ stop() {
 
 cannot() { echo "local_slurm: cannot run a local Slurm here: $*"; exit 3; }
 
-start() {
+# Only these two make a local Slurm impossible here; anything that fails after them is a failure.
+check() {
   [ "$(id -u)" -eq 0 ] || cannot "not root (slurmd must run as root to start jobs)"
+  local missing=""
   for p in munged mungekey slurmctld slurmd sbatch squeue sinfo scontrol; do
-    command -v "$p" >/dev/null 2>&1 ||
-      cannot "'$p' not found (Debian: apt-get install slurm-wlm munge)"
+    command -v "$p" >/dev/null 2>&1 || missing="$missing $p"
   done
-  mkdir -p "$dir"/{munge,state,spool,log,run} || cannot "cannot create $dir"
+  [ -z "$missing" ] ||
+    cannot "slurm-wlm or munge not installed:$missing not found (Debian: apt-get install" \
+      "slurm-wlm munge)"
+}
+
+# Slurm and munge are installed and this is root, yet the cluster does not come up.
+failed() {
+  for f in "$dir"/log/*.log "$dir"/log/*.stdout; do
+    [ -s "$f" ] || continue
+    echo "== $f"
+    tail -n 8 "$f"
+  done
+  echo "local_slurm: the local cluster did not start: $*"
+  stop
+  exit 4
+}
+
+start() {
+  check
+  mkdir -p "$dir"/{munge,state,spool,log,run} || failed "cannot create $dir"
   dir=$(cd "$dir" && pwd)
   chmod 755 "$dir"
   chmod 700 "$dir/munge"
   rm -f "$dir/munge/munge.key"
   mungekey --create --keyfile="$dir/munge/munge.key" >/dev/null 2>&1 ||
     dd if=/dev/urandom of="$dir/munge/munge.key" bs=1024 count=1 status=none ||
-    cannot "cannot create a munge key"
+    failed "cannot create a munge key"
   chmod 600 "$dir/munge/munge.key"
   munged --force --socket="$dir/munge/munge.socket" --key-file="$dir/munge/munge.key" \
     --pid-file="$dir/run/munged.pid" --log-file="$dir/log/munged.log" \
     --seed-file="$dir/munge/munged.seed" </dev/null >"$dir/log/munged.stdout" 2>&1 ||
-    { cat "$dir/log/munged.stdout" "$dir/log/munged.log" 2>/dev/null | tail -5;
-      cannot "munged does not start"; }
+    failed "munged does not start"
 
   host=$(hostname -s)
   read -r cpus mem < <(slurmd -C 2>/dev/null |
@@ -117,12 +144,6 @@ PartitionName=dfo Nodes=$host Default=YES MaxTime=INFINITE State=UP
 EOF
 
   export SLURM_CONF="$dir/slurm.conf"
-  failed() {
-    for f in "$dir"/log/*.log; do echo "== $f"; tail -n 8 "$f"; done
-    echo "local_slurm: $*"
-    stop
-    exit 4
-  }
   slurmctld -f "$SLURM_CONF" -i </dev/null >"$dir/log/slurmctld.stdout" 2>&1 ||
     failed "slurmctld does not start"
   slurmd -f "$SLURM_CONF" -N "$host" </dev/null >"$dir/log/slurmd.stdout" 2>&1 ||
@@ -138,7 +159,7 @@ EOF
 }
 
 case "$cmd" in
+  check) check && echo "local_slurm: root, and slurm-wlm and munge are installed" ;;
   start) start ;;
   stop) stop ;;
-  *) usage ;;
 esac

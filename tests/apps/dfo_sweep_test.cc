@@ -4,8 +4,8 @@
 // one clear line. And through a real Slurm: a single-node cluster on localhost
 // (tools/local_slurm.sh: munged with its own key, slurmctld, slurmd, a slurm.conf generated for
 // this host) runs a 2-run sweep as a job array; --collect --wait gathers the results. That test is
-// skipped with the reason when Slurm cannot run here (not root, slurm-wlm or munge not installed,
-// a daemon that does not start).
+// skipped, saying which, only when Slurm cannot run here (not root, slurm-wlm or munge not
+// installed); a cluster that does not come up although they are installed fails it.
 #include <unistd.h>
 
 #include <gtest/gtest.h>
@@ -225,7 +225,14 @@ class LocalSlurm {
   ~LocalSlurm() {
     if (started_) test::RunCommand(Script(), "stop " + dir_);
   }
-  // 0 running; 3 cannot run here; other: did not come up. `output` gets what the script said.
+  // Whether a local Slurm can run here at all: 0 yes; 3 not root or slurm-wlm / munge not
+  // installed (the last line of `output` says which); other: the script is broken.
+  static int Check(std::string* output) {
+    const test::CommandResult r = test::RunCommand(Script(), "check");
+    *output = r.out + r.err;
+    return r.status;
+  }
+  // 0 running; else it did not come up and `output` holds the log tails and the reason.
   int Start(std::string* output) {
     const test::CommandResult r = test::RunCommand(Script(), "start " + dir_);
     started_ = true;  // stop even after a half start
@@ -241,17 +248,20 @@ class LocalSlurm {
 };
 
 TEST(DfoSweepSlurm, JobArrayOnALocalClusterThenCollect) {
+  // Skipped only where Slurm cannot run: not root, or slurm-wlm or munge not installed. Where
+  // they are installed and this is root, a cluster that does not come up fails the test.
   if (geteuid() != 0) GTEST_SKIP() << "Slurm test skipped: not root (slurmd must run as root)";
+  std::string said;
+  const int can_run = LocalSlurm::Check(&said);
+  if (can_run == 3) GTEST_SKIP() << "Slurm test skipped: " << LastLine(said);
+  ASSERT_EQ(can_run, 0) << "tools/local_slurm.sh check:\n" << said;
   const std::string dir = test::MakeTempDir("sweep_slurm");
   LocalSlurm slurm(dir + "/cluster");
-  std::string said;
   const int status = slurm.Start(&said);
-  if (status == 3) GTEST_SKIP() << "Slurm test skipped: " << LastLine(said);
-  if (status != 0) {
-    GTEST_SKIP() << "Slurm test skipped: the local cluster did not start (status " << status
-                 << "):\n"
-                 << said;
-  }
+  ASSERT_EQ(status, 0) << "slurm-wlm and munge are installed and this is root, but the local "
+                          "cluster did not start (tools/local_slurm.sh start, status "
+                       << status << "):\n"
+                       << said;
   // From here on Slurm runs: failures are failures.
   const std::string data = dir + "/synthetic";
   test::CommandResult r =

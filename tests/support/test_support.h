@@ -2,12 +2,14 @@
 #ifndef DFO_TESTS_SUPPORT_TEST_SUPPORT_H_
 #define DFO_TESTS_SUPPORT_TEST_SUPPORT_H_
 
+#include <cstdlib>
 #include <string>
 
 namespace dfo::test {
 
-// Folder of ../shared/data (or DFO_SHARED_DATA_DIR), or "" when it is absent. Tests that need it
-// call DFO_SKIP_WITHOUT_SHARED_DATA() first.
+// Folder of ../shared/data ($DFO_SHARED_DATA when set, else the CMake cache's
+// DFO_SHARED_DATA_DIR), or "" when it is absent. Tests that need it call
+// DFO_SKIP_WITHOUT_SHARED_DATA() first.
 std::string SharedDataDir();
 
 // A fresh, empty temporary folder unique to this test; removed at process exit is not promised.
@@ -33,13 +35,30 @@ CommandResult RunCommand(const std::string& exe, const std::string& args);
 std::string CopyOfSyntheticSequence(const std::string& synth_exe, int frames,
                                     const std::string& tag);
 
+namespace internal {
+// The skip message of DFO_SKIP_WITHOUT_SHARED_DATA: the folder SharedDataDir() looked at
+// ($DFO_SHARED_DATA when set, else the CMake cache's DFO_SHARED_DATA_DIR) is not a folder.
+inline std::string SharedDataSkipReason() {
+  const char* env = std::getenv("DFO_SHARED_DATA");
+  const std::string where =
+      env != nullptr ? "$DFO_SHARED_DATA = '" + std::string(env) + "'"
+                     : "DFO_SHARED_DATA_DIR = '" + std::string(DFO_SHARED_DATA_DIR) + "'";
+  return "skipped: needs the real data of ../shared/data, but " + where +
+         " is not a folder (configure with -DDFO_SHARED_DATA_DIR=... or run with "
+         "DFO_SHARED_DATA=...)";
+}
+}  // namespace internal
+
 }  // namespace dfo::test
 
-#define DFO_SKIP_WITHOUT_SHARED_DATA()                                                     \
-  do {                                                                                     \
-    if (::dfo::test::SharedDataDir().empty()) {                                            \
-      GTEST_SKIP() << "../shared/data not found (set -DDFO_SHARED_DATA_DIR=...); skipped"; \
-    }                                                                                      \
+// Skips the test when SharedDataDir() is "", saying which folder was looked at and how to point
+// the tests elsewhere. Only an absent folder skips: a folder without the files a test reads
+// fails that test (the reader's error names the file).
+#define DFO_SKIP_WITHOUT_SHARED_DATA()                               \
+  do {                                                               \
+    if (::dfo::test::SharedDataDir().empty()) {                      \
+      GTEST_SKIP() << ::dfo::test::internal::SharedDataSkipReason(); \
+    }                                                                \
   } while (0)
 
 #endif  // DFO_TESTS_SUPPORT_TEST_SUPPORT_H_
