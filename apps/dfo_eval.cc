@@ -177,12 +177,7 @@ io::TrajectoryFormat DetectFormat(const std::string& path) {
   throw InputError("trajectory file " + path + " has no pose line");
 }
 
-std::string Fixed(double v, int decimals = 6) {
-  if (!std::isfinite(v)) return "n/a";
-  char buf[64];
-  std::snprintf(buf, sizeof(buf), "%.*f", decimals, v);
-  return buf;
-}
+std::string Fixed(double v, int decimals = 6) { return apps::FormatFixed(v, decimals); }
 
 int RunTraj(int argc, char** argv) {
   if (WantsHelp(argc, argv)) {
@@ -263,7 +258,15 @@ int RunTraj(int argc, char** argv) {
   apps::TrajectoryEvaluationOptions eval_options;
   eval_options.alignment = align_options.type;
   eval_options.rpe = rpe_options;
-  apps::TrajectoryEvaluation evaluation = apps::EvaluateTrajectory(gt, est, eval_options);
+  apps::TrajectoryEvaluation evaluation;
+  try {
+    evaluation = apps::EvaluateTrajectory(gt, est, eval_options);
+  } catch (const ConfigError&) {
+    throw;
+  } catch (const InputError& e) {
+    // Degenerate or out-of-range geometry: say which files, on one line.
+    throw InputError("cannot evaluate " + est_path + " against " + gt_path + ": " + e.what());
+  }
   evaluation.num_gt_poses = gt_raw.size();
   evaluation.num_est_poses = est_raw.size();
   evaluation.format = io::TrajectoryFormatName(format);
@@ -293,7 +296,7 @@ int RunTraj(int argc, char** argv) {
             << "poses:        " << gt.size() << " (" << io::TrajectoryFormatName(format) << ", "
             << pairing << ")\n"
             << "alignment:    " << align_name << " (Umeyama), scale "
-            << Fixed(alignment.transform.scale) << "\n"
+            << apps::FormatScale(alignment.transform.scale) << "\n"
             << "ATE [m]       rmse " << Fixed(ate.stats.rmse) << "  mean " << Fixed(ate.stats.mean)
             << "  median " << Fixed(ate.stats.median) << "  std " << Fixed(ate.stats.std)
             << "  min " << Fixed(ate.stats.min) << "  max " << Fixed(ate.stats.max) << "\n";

@@ -43,7 +43,10 @@ options:
   --tum FILE               write the trajectory to FILE (TUM: timestamp tx ty tz qx qy qz qw)
   --source WHICH           which estimate goes to --tum: auto (windowed when the run sent it,
                            else frontend-only; default), windowed, frontend
-  --log FILE               read this LCM event log instead of listening
+  --log FILE               read this LCM event log instead of listening; damaged stretches
+                           (bad sync words, absurd lengths, a cut-off end) are skipped and
+                           one line on stderr says how many bytes, where, and how many events
+                           were read; a file without any valid event is an error
   --timeout SECONDS        live: give up after this many seconds without any dfo message
                            (exit status 3, the file is still written); 0 = wait (default)
   --quiet                  no line per message; malformed messages and the summary only
@@ -53,7 +56,7 @@ Flags also take their value after '=' (--tum=out.txt).
 Printed lines: `pose FRAME TIME SOURCE STATUS [kf] p X Y Z q W X Y Z` (camera-to-world,
 quaternion w x y z), `keyframes after frame N: K poses`, `status ...` every 50 frames, `stop ...`.
 Messages that are not what their channel carries (another type's fingerprint, truncated, invalid
-values) are reported on stderr and skipped.
+values) are reported on stderr (the first 20) and skipped; the summary counts them by channel.
 )";
 
 using apps::UsageError;
@@ -264,13 +267,15 @@ int Run(const Args& args) {
   Listener listener(args);
   int status = 0;
   if (!args.log_path.empty()) {
-    const int64_t events = io::ReadLcmLog(
+    // Damaged stretches are skipped and counted by the reader; a file without a single valid
+    // event is an error there.
+    const io::LcmLogReadResult read = io::ReadLcmLog(
         args.log_path, [&](const std::string& channel, const void* data, size_t size) {
           listener.Handle(channel, data, size);
           return true;  // read on after a stop: a log may hold several runs' ends
         });
-    if (events == 0) {
-      throw InputError("no LCM events in " + args.log_path + " (empty, or not an LCM log)");
+    if (read.skipped_bytes > 0) {
+      std::fprintf(stderr, "dfo_lcm_listen: warning: %s\n", read.Summary().c_str());
     }
   } else {
     status = ListenLive(args, &listener);
@@ -278,13 +283,23 @@ int Run(const Args& args) {
 
   const io::LcmTrajectoryCollector& c = listener.collector();
   const io::LcmCollectorCounts& n = c.counts();
+  // "3 malformed skipped (DFO_POSE: 2, DFO_KEYFRAMES: 1)": past the first 20 only counted.
+  std::string malformed = std::to_string(n.malformed) + " malformed skipped";
+  if (n.malformed > 0) {
+    std::string by_channel;
+    for (const auto& [channel, count] : n.malformed_by_channel) {
+      by_channel +=
+          (by_channel.empty() ? "" : ", ") + Printable(channel) + ": " + std::to_string(count);
+    }
+    malformed += " (" + by_channel + ")";
+  }
   std::printf(
       "dfo_lcm_listen: %zu frames (%lld frontend, %lld windowed poses), %lld keyframe batches, "
-      "%lld status, %s, %lld malformed skipped, %lld on other channels\n",
+      "%lld status, %s, %s, %lld on other channels\n",
       std::max(c.num_frontend_frames(), c.num_windowed_frames()),
       static_cast<long long>(n.frontend_poses), static_cast<long long>(n.windowed_poses),
       static_cast<long long>(n.keyframe_batches), static_cast<long long>(n.status),
-      c.stopped() ? "stop received" : "no stop message", static_cast<long long>(n.malformed),
+      c.stopped() ? "stop received" : "no stop message", malformed.c_str(),
       static_cast<long long>(n.ignored));
   if (!args.tum_path.empty()) {
     const bool windowed =

@@ -54,10 +54,18 @@ struct SimilarityTransform {
 // covariance (1/n) sum (y_i - mean_y)(x_i - mean_x)^T, SVD U D V^T, S = diag(1, 1, -1) when
 // det(U) det(V) < 0 (so R is a proper rotation even for reflected data), R = U S V^T,
 // c = trace(D S) / sigma_x^2, t = mean_y - c R mean_x.
-// Throws InputError when the sizes differ, fewer than 2 points are given, or the covariance has
-// rank < 2 (e.g. all source points identical, as evo's "Degenerate covariance rank").
+// Each point set is centred and scaled by powers of two before anything is squared (exact
+// scalings, so ordinary inputs give evo's result to rounding): coordinates of any finite magnitude
+// (1e-300 or 1e300) neither overflow nor underflow. Throws InputError (naming the set by
+// source_name / target_name, e.g. "estimate") when the sizes differ, fewer than 3 points are given,
+// a coordinate is not finite, a set's points coincide (also up to the last few bits of their
+// coordinates) or lie on one line (the rotation about it would be rounding noise), the
+// covariance has rank < 2 relative to the spreads (evo's "Degenerate covariance rank", made
+// independent of the units), or the scale or translation leaves the double range. The result
+// is always finite with scale > 0.
 SimilarityTransform UmeyamaAlignment(const Eigen::Matrix3Xd& source, const Eigen::Matrix3Xd& target,
-                                     bool with_scale);
+                                     bool with_scale, const std::string& source_name = "source",
+                                     const std::string& target_name = "target");
 
 // Options of AlignTrajectory.
 struct TrajectoryAlignmentOptions {
@@ -79,7 +87,9 @@ struct TrajectoryAlignment {
 // Aligns `estimate` onto `ground_truth`; the two must already be associated (same size, pose i
 // of one corresponds to pose i of the other; see AssociateByTimestamp). Positions only, as evo.
 // The scale is 1 unless options.type is kSim3. Throws InputError on different sizes, on an empty
-// trajectory and on degenerate geometry (see UmeyamaAlignment).
+// trajectory, on non-finite, coinciding or collinear positions and on a transform beyond double
+// precision (see UmeyamaAlignment; messages say "estimate" and "ground-truth"), and when an
+// aligned pose leaves the double range.
 TrajectoryAlignment AlignTrajectory(const Trajectory& estimate, const Trajectory& ground_truth,
                                     const TrajectoryAlignmentOptions& options = {});
 

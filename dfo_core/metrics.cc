@@ -28,27 +28,81 @@ void CheckSameSize(const Trajectory& ground_truth, const Trajectory& estimate, c
 std::vector<double> PathDistances(const Trajectory& trajectory) {
   std::vector<double> dist(trajectory.size(), 0.0);
   for (size_t i = 1; i < trajectory.size(); ++i) {
-    dist[i] = dist[i - 1] + (trajectory[i].world_from_cam.translation() -
-                             trajectory[i - 1].world_from_cam.translation())
-                                .norm();
+    dist[i] = dist[i - 1] + RobustNorm(trajectory[i].world_from_cam.translation() -
+                                       trajectory[i - 1].world_from_cam.translation());
   }
   return dist;
+}
+
+// Largest |x| (0 for none; inf when one is infinite; NaN values are passed over).
+double LargestMagnitude(const std::vector<double>& v) {
+  double m = 0.0;
+  for (double x : v) m = std::max(m, std::abs(x));
+  return m;
+}
+
+// The power of two 2^e nearest above the largest |x| (1 for 0): dividing by it is exact.
+int ScaleExponent(double largest) {
+  int e = 0;
+  if (largest > 0.0) std::frexp(largest, &e);
+  return e;
 }
 
 double Mean(const std::vector<double>& v) {
   if (v.empty()) return kNaN;
   double sum = 0.0;
   for (double x : v) sum += x;
-  return sum / static_cast<double>(v.size());
+  if (std::isfinite(sum)) return sum / static_cast<double>(v.size());
+  // The sum left the double range (values near 1e308): the same sum scaled by a power of two.
+  const double largest = LargestMagnitude(v);
+  if (!std::isfinite(largest)) return sum / static_cast<double>(v.size());  // inf or NaN inside
+  const int e = ScaleExponent(largest);
+  sum = 0.0;
+  for (double x : v) sum += std::ldexp(x, -e);
+  return std::ldexp(sum / static_cast<double>(v.size()), e);
+}
+
+// sqrt(mean((x - center)^2)). Squares of values beyond 1e154 overflow: then the same computation
+// on values scaled by a power of two (exact), so the result is right whenever it is representable.
+double RootMeanSquare(const std::vector<double>& v, double center, double* sum_of_squares) {
+  double sum = 0.0;
+  for (double x : v) sum += (x - center) * (x - center);
+  if (sum_of_squares != nullptr) *sum_of_squares = sum;
+  if (std::isfinite(sum) && sum >= std::numeric_limits<double>::min()) {
+    return std::sqrt(sum / static_cast<double>(v.size()));
+  }
+  double largest = 0.0;
+  for (double x : v) largest = std::max(largest, std::abs(x - center));
+  if (largest == 0.0 || !std::isfinite(largest) || std::isnan(sum)) {
+    return std::sqrt(sum / static_cast<double>(v.size()));  // all 0, or inf / NaN inside
+  }
+  const int e = ScaleExponent(largest);
+  double scaled = 0.0;
+  for (double x : v) {
+    const double d = std::ldexp(x - center, -e);
+    scaled += d * d;
+  }
+  return std::ldexp(std::sqrt(scaled / static_cast<double>(v.size())), e);
 }
 
 // Population standard deviation (numpy's np.std, ddof = 0).
 double PopulationStd(const std::vector<double>& v) {
   if (v.empty()) return kNaN;
-  const double mean = Mean(v);
-  double sum = 0.0;
-  for (double x : v) sum += (x - mean) * (x - mean);
-  return std::sqrt(sum / static_cast<double>(v.size()));
+  return RootMeanSquare(v, Mean(v), nullptr);
+}
+
+// Throws InputError when an error value is not finite. The inputs are finite (readers and
+// AlignTrajectory check), so this means a difference of positions left the double range.
+void CheckFiniteErrors(const std::vector<double>& errors, const char* metric, const char* what) {
+  for (size_t i = 0; i < errors.size(); ++i) {
+    if (!std::isfinite(errors[i])) {
+      std::ostringstream msg;
+      msg << metric << ": the error of " << what << " " << i << " is " << errors[i]
+          << " (a non-finite pose, or positions so far apart that their difference exceeds the "
+             "double range)";
+      throw InputError(msg.str());
+    }
+  }
 }
 
 }  // namespace
@@ -60,10 +114,7 @@ ErrorStatistics ComputeStatistics(const std::vector<double>& errors) {
     s.rmse = s.mean = s.median = s.std = s.min = s.max = s.sse = kNaN;
     return s;
   }
-  double sse = 0.0;
-  for (double e : errors) sse += e * e;
-  s.sse = sse;
-  s.rmse = std::sqrt(sse / static_cast<double>(errors.size()));
+  s.rmse = RootMeanSquare(errors, 0.0, &s.sse);
   s.mean = Mean(errors);
   s.std = PopulationStd(errors);
   std::vector<double> sorted = errors;
@@ -81,10 +132,10 @@ AteResult ComputeAte(const Trajectory& ground_truth, const Trajectory& estimate)
   result.errors.reserve(estimate.size());
   // evo APE translation_part: E = positions_est - positions_ref, error = |E_i|.
   for (size_t i = 0; i < estimate.size(); ++i) {
-    result.errors.push_back(
-        (estimate[i].world_from_cam.translation() - ground_truth[i].world_from_cam.translation())
-            .norm());
+    result.errors.push_back(RobustNorm(estimate[i].world_from_cam.translation() -
+                                       ground_truth[i].world_from_cam.translation()));
   }
+  CheckFiniteErrors(result.errors, "ATE", "pose");
   result.stats = ComputeStatistics(result.errors);
   return result;
 }
@@ -152,9 +203,8 @@ std::vector<std::pair<size_t, size_t>> PairsByPath(const Trajectory& trajectory,
   double current = 0.0;
   for (size_t i = 0; i < n; ++i) {
     if (i > 0) {
-      current += (trajectory[i].world_from_cam.translation() -
-                  trajectory[i - 1].world_from_cam.translation())
-                     .norm();
+      current += RobustNorm(trajectory[i].world_from_cam.translation() -
+                            trajectory[i - 1].world_from_cam.translation());
     }
     if (current >= delta) {
       ids.push_back(i);
@@ -187,9 +237,11 @@ RpeResult ComputeRpe(const Trajectory& ground_truth, const Trajectory& estimate,
     const SE3d q_rel = ground_truth[i].world_from_cam.Inverse() * ground_truth[j].world_from_cam;
     const SE3d p_rel = estimate[i].world_from_cam.Inverse() * estimate[j].world_from_cam;
     const SE3d e = q_rel.Inverse() * p_rel;
-    result.translation_errors.push_back(e.translation().norm());
+    result.translation_errors.push_back(RobustNorm(e.translation()));
     result.rotation_errors_deg.push_back(e.so3().Angle() * kRadToDeg);
   }
+  CheckFiniteErrors(result.translation_errors, "RPE", "pair");
+  CheckFiniteErrors(result.rotation_errors_deg, "RPE", "pair");
   result.translation = ComputeStatistics(result.translation_errors);
   result.rotation_deg = ComputeStatistics(result.rotation_errors_deg);
   return result;
@@ -237,7 +289,13 @@ KittiOdometryResult ComputeKittiOdometryErrors(const Trajectory& ground_truth,
       const Eigen::Matrix3d R = error.rotationMatrix();
       const double d = 0.5 * (R.trace() - 1.0);
       const double r_err = std::acos(std::max(std::min(d, 1.0), -1.0));
-      const double t_err = error.translation().norm();
+      const double t_err = RobustNorm(error.translation());
+      if (!std::isfinite(t_err) || !std::isfinite(r_err)) {
+        throw InputError("KITTI odometry errors: the error of the segment from frame " +
+                         std::to_string(first) + " to " + std::to_string(last) +
+                         " is not finite (a non-finite pose, or positions beyond the double "
+                         "range)");
+      }
       t_sum[l] += t_err / len;
       r_sum[l] += r_err / len;
       ++counts[l];
@@ -291,9 +349,25 @@ SnippetAteResult ComputeSnippetAte(const Trajectory& ground_truth, const Traject
     }
     // compute_ate: offset so the first positions agree (both are 0 here up to round-off).
     const Eigen::Vector3d offset = gt[0] - est[0];
-    double num = 0.0, den = 0.0;
+    // Both scaled by one power of two (exact, and the fitted scale is unchanged) so that the dot
+    // products below neither overflow nor underflow; the error is scaled back at the end.
+    double largest = 0.0;
     for (size_t k = 0; k < len; ++k) {
       est[k] += offset;
+      largest = std::max({largest, gt[k].cwiseAbs().maxCoeff(), est[k].cwiseAbs().maxCoeff()});
+    }
+    if (!std::isfinite(largest)) {
+      throw InputError("snippet ATE: the snippet from frame " + std::to_string(start) +
+                       " has non-finite relative positions (a non-finite pose, or positions "
+                       "beyond the double range)");
+    }
+    const int e = ScaleExponent(largest);
+    double num = 0.0, den = 0.0;
+    for (size_t k = 0; k < len; ++k) {
+      for (int c = 0; c < 3; ++c) {
+        gt[k][c] = std::ldexp(gt[k][c], -e);
+        est[k][c] = std::ldexp(est[k][c], -e);
+      }
       num += gt[k].dot(est[k]);
       den += est[k].squaredNorm();
     }
@@ -301,7 +375,7 @@ SnippetAteResult ComputeSnippetAte(const Trajectory& ground_truth, const Traject
     double sum_sq = 0.0;
     for (size_t k = 0; k < len; ++k) sum_sq += (scale * est[k] - gt[k]).squaredNorm();
     // sqrt(sum of squares) / N, SfMLearner's definition.
-    result.errors.push_back(std::sqrt(sum_sq) / static_cast<double>(len));
+    result.errors.push_back(std::ldexp(std::sqrt(sum_sq) / static_cast<double>(len), e));
   }
   result.mean = Mean(result.errors);
   result.std = PopulationStd(result.errors);

@@ -4,7 +4,9 @@
 #ifndef DFO_CORE_TRAJECTORY_H_
 #define DFO_CORE_TRAJECTORY_H_
 
+#include <cmath>
 #include <cstdint>
+#include <limits>
 #include <vector>
 
 #include "dfo_core/lie.h"
@@ -16,6 +18,23 @@ struct StampedPose {
   int64_t timestamp_ns = 0;  // time of the frame in nanoseconds
   SE3d world_from_cam;       // camera-to-world transform
 };
+
+// |v| without overflow or underflow of the squares: sqrt(v.v) when the squares stay in the
+// double range (then bit for bit Eigen's norm()), else the same on v scaled by a power of two
+// (exact), e.g. for coordinates of 1e200. Not finite only when a coefficient is not finite or |v|
+// exceeds the double range.
+inline double RobustNorm(const Eigen::Vector3d& v) {
+  const double squared = v.squaredNorm();
+  if (std::isfinite(squared) && squared >= std::numeric_limits<double>::min()) {
+    return std::sqrt(squared);
+  }
+  const double largest = v.cwiseAbs().maxCoeff();
+  if (!(largest > 0.0) || !std::isfinite(largest)) return std::sqrt(squared);  // 0, inf or NaN
+  int e = 0;
+  std::frexp(largest, &e);
+  const Eigen::Vector3d scaled(std::ldexp(v.x(), -e), std::ldexp(v.y(), -e), std::ldexp(v.z(), -e));
+  return std::ldexp(scaled.norm(), e);
+}
 
 // A sequence of stamped poses in time order (not enforced here; readers check it).
 class Trajectory {
@@ -47,9 +66,8 @@ class Trajectory {
   double PathLength() const {
     double length = 0.0;
     for (size_t i = 1; i < poses_.size(); ++i) {
-      length += (poses_[i].world_from_cam.translation() -
-                 poses_[i - 1].world_from_cam.translation())
-                    .norm();
+      length += RobustNorm(poses_[i].world_from_cam.translation() -
+                           poses_[i - 1].world_from_cam.translation());
     }
     return length;
   }

@@ -68,7 +68,8 @@ double ParseNumber(const std::string& token, const std::string& path, int line, 
 Eigen::Matrix3d CheckedRotation(const Eigen::Matrix3d& R, const std::string& path, int line) {
   const double orth_error = (R.transpose() * R - Eigen::Matrix3d::Identity()).cwiseAbs().maxCoeff();
   const double det = R.determinant();
-  if (orth_error > kRotationTolerance || std::abs(det - 1.0) > kRotationTolerance) {
+  // Written so that NaN fails too.
+  if (!(orth_error <= kRotationTolerance) || !(std::abs(det - 1.0) <= kRotationTolerance)) {
     std::ostringstream msg;
     msg << Where(path, line) << "rotation is not orthonormal (max |R^T R - I| = " << orth_error
         << ", det = " << det << "), expected a rotation within " << kRotationTolerance;

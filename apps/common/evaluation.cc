@@ -10,8 +10,18 @@ std::string DeltaUnitName(DeltaUnit unit) { return unit == DeltaUnit::kFrames ? 
 std::string FormatFixed(double v, int decimals) {
   if (!std::isfinite(v)) return "n/a";
   char buf[64];
-  std::snprintf(buf, sizeof(buf), "%.*f", decimals, v);
+  // Beyond 1e15 fixed notation is a wall of meaningless digits.
+  std::snprintf(buf, sizeof(buf), std::abs(v) >= 1e15 ? "%.*e" : "%.*f", decimals, v);
   return buf;
+}
+
+std::string FormatScale(double scale, int decimals) {
+  if (std::isfinite(scale) && scale != 0.0 && (std::abs(scale) < 1e-3 || std::abs(scale) >= 1e6)) {
+    char buf[64];
+    std::snprintf(buf, sizeof(buf), "%.*e", decimals, scale);
+    return buf;
+  }
+  return FormatFixed(scale, decimals);
 }
 
 TrajectoryEvaluation EvaluateTrajectory(const Trajectory& ground_truth, const Trajectory& estimate,
@@ -71,7 +81,7 @@ std::vector<std::string> EvaluationPlotLines(const TrajectoryEvaluation& e) {
                   FormatFixed(e.ate.stats.mean, 4) + " m, max " + FormatFixed(e.ate.stats.max, 4) +
                   " m   (" + std::to_string(e.ground_truth.size()) + " poses, " +
                   AlignmentTypeName(e.options.alignment) + " alignment, scale " +
-                  FormatFixed(e.alignment.transform.scale, 4) + ")");
+                  FormatScale(e.alignment.transform.scale, 4) + ")");
   const bool frames = e.options.rpe.delta_unit == DeltaUnit::kFrames;
   std::string line2 = "RPE (" + FormatFixed(e.options.rpe.delta, frames ? 0 : 3) + " " +
                       DeltaUnitName(e.options.rpe.delta_unit) + ") rmse " +

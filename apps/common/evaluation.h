@@ -48,8 +48,10 @@ struct TrajectoryEvaluation {
 };
 
 // Aligns `estimate` onto `ground_truth` (already associated: equal sizes) and computes every
-// metric on the aligned estimate. Throws InputError on different sizes or degenerate geometry
-// (fewer than 2 distinct positions, see UmeyamaAlignment) and ConfigError on bad RPE options.
+// metric on the aligned estimate. Throws InputError on different sizes, on degenerate or
+// non-finite geometry (fewer than 3 poses, positions that coincide or lie on one line, a scale
+// or an error beyond the double range; see UmeyamaAlignment and metrics.h), and ConfigError on
+// bad RPE options: every figure of a returned evaluation is finite or NaN for "not computed".
 TrajectoryEvaluation EvaluateTrajectory(const Trajectory& ground_truth, const Trajectory& estimate,
                                         const TrajectoryEvaluationOptions& options = {});
 
@@ -63,8 +65,11 @@ std::vector<std::string> EvaluationPlotLines(const TrajectoryEvaluation& evaluat
 // Name of an RPE delta unit as dfo_eval spells it: "frames" | "m".
 std::string DeltaUnitName(DeltaUnit unit);
 
-// "%.<decimals>f" of v, "n/a" when v is not finite.
+// "%.<decimals>f" of v ("%.<decimals>e" from 1e15 on), "n/a" when v is not finite.
 std::string FormatFixed(double v, int decimals = 6);
+// A Sim3 scale: as FormatFixed between 1e-3 and 1e6, else "%.<decimals>e" (a scale of 1e-150
+// must not print as 0.000000).
+std::string FormatScale(double scale, int decimals = 6);
 
 }  // namespace dfo::apps
 

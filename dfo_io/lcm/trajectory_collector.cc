@@ -1,6 +1,5 @@
 #include "dfo_io/lcm/trajectory_collector.h"
 
-#include <lcm/lcm-cpp.hpp>
 #include <utility>
 
 #include "dfo_core/error.h"
@@ -109,6 +108,7 @@ LcmCollectorEvent LcmTrajectoryCollector::Handle(const std::string& channel, con
     event.kind = LcmCollectorEvent::Kind::kMalformed;
     event.message = channel + ": " + error;
     ++counts_.malformed;
+    ++counts_.malformed_by_channel[channel];
   }
   return event;
 }
@@ -133,22 +133,6 @@ Trajectory LcmTrajectoryCollector::WindowedTrajectory() const {
     t.Add(p.timestamp_ns, pose);
   }
   return t;
-}
-
-int64_t ReadLcmLog(
-    const std::string& path,
-    const std::function<bool(const std::string& channel, const void* data, size_t size)>& handle) {
-  lcm::LogFile log(path, "r");
-  if (!log.good()) {
-    throw InputError("cannot open the LCM event log " + path + " (does it exist, is it readable?)");
-  }
-  int64_t events = 0;
-  while (const lcm::LogEvent* event = log.readNextEvent()) {
-    ++events;
-    const size_t size = event->datalen > 0 ? static_cast<size_t>(event->datalen) : 0;
-    if (!handle(event->channel, event->data, size)) break;
-  }
-  return events;
 }
 
 }  // namespace dfo::io

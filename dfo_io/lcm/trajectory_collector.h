@@ -17,12 +17,12 @@
 #define DFO_IO_LCM_TRAJECTORY_COLLECTOR_H_
 
 #include <cstdint>
-#include <functional>
 #include <map>
 #include <optional>
 #include <string>
 
 #include "dfo_core/trajectory.h"
+#include "dfo_io/lcm/event_log.h"  // ReadLcmLog: the events of a log, for Handle
 #include "dfo_io/lcm/messages.h"
 
 namespace dfo::io {
@@ -55,6 +55,7 @@ struct LcmCollectorCounts {
   int64_t stops = 0;
   int64_t ignored = 0;
   int64_t malformed = 0;
+  std::map<std::string, int64_t> malformed_by_channel;  // the malformed ones, by channel name
 };
 
 class LcmTrajectoryCollector {
@@ -101,14 +102,6 @@ class LcmTrajectoryCollector {
   std::optional<dfo::run_status_t> status_;
   std::optional<dfo::stop_t> stop_;
 };
-
-// Reads the LCM event log `path` (as written by dfo_run's lcm.log_path, lcm-logger or
-// file://...?mode=w) and hands each event to `handle` in order, until the end of the log or
-// until `handle` returns false. Returns the number of events read. Throws InputError when the
-// file cannot be opened as an LCM log.
-int64_t ReadLcmLog(
-    const std::string& path,
-    const std::function<bool(const std::string& channel, const void* data, size_t size)>& handle);
 
 }  // namespace dfo::io
 

@@ -131,6 +131,84 @@ TEST(DfoEval, Sim3AlignmentRemovesScaleOfSyntheticPair) {
   EXPECT_EQ(height, 900);
 }
 
+// A TUM file of n poses, position i given by `position(i)` (printed with %.17g).
+template <typename F>
+std::string WriteTum(const std::string& path, int n, F position) {
+  std::ofstream out(path);
+  for (int i = 0; i < n; ++i) {
+    const Eigen::Vector3d p = position(i);
+    char line[256];
+    std::snprintf(line, sizeof(line), "%d.0 %.17g %.17g %.17g 0 0 0 1\n", i, p.x(), p.y(), p.z());
+    out << line;
+  }
+  return path;
+}
+
+// Trajectories at magnitudes whose squares overflow are evaluated exactly (the scale of 1e-300
+// printed as such, not as 0.000000); inputs for which no alignment or metric means anything are
+// one clear error line naming the files, exit status 1, never figures of garbage.
+TEST(DfoEval, HugeAndDegenerateTrajectories) {
+  const std::string dir = test::MakeTempDir("dfo_eval_degenerate");
+  const auto curve = [](int i) {
+    return Eigen::Vector3d(i, 2.0 * std::sin(0.5 * i), std::cos(0.7 * i));
+  };
+  const std::string gt = WriteTum(dir + "/gt.txt", 20, curve);
+  const std::string est_1e300 = WriteTum(dir + "/est_1e300.txt", 20,
+                                         [&](int i) { return Eigen::Vector3d(1e300 * curve(i)); });
+  CommandResult r = RunEval("traj --gt " + gt + " --est " + est_1e300);
+  ASSERT_EQ(r.status, 0) << r.err;
+  EXPECT_NE(r.out.find("alignment:    sim3 (Umeyama), scale 1.000000e-300"), std::string::npos)
+      << r.out;
+  EXPECT_NE(r.out.find("ATE [m]       rmse 0.000000"), std::string::npos) << r.out;
+  r = RunEval("traj --json --gt " + gt + " --est " + est_1e300);
+  ASSERT_EQ(r.status, 0) << r.err;
+  const io::JsonValue j = io::ParseJson(r.out, "dfo_eval stdout");
+  EXPECT_NEAR(j["scale"].AsNumber() * 1e300, 1.0, 1e-12);
+  EXPECT_LT(j["ate_rmse"].AsNumber(), 1e-9);
+  // The other way round: a ground truth of 1e200, errors of that size stay finite.
+  r = RunEval("traj --json --gt " +
+              WriteTum(dir + "/gt_1e200.txt", 20,
+                       [&](int i) {
+                         return Eigen::Vector3d(1e200 * curve(i) +
+                                                Eigen::Vector3d(0, 1e199 * (i % 2), 0));
+                       }) +
+              " --est " + gt);
+  ASSERT_EQ(r.status, 0) << r.err;
+  const io::JsonValue big = io::ParseJson(r.out, "dfo_eval stdout");
+  EXPECT_GT(big["scale"].AsNumber(), 1e199);
+  EXPECT_LT(big["scale"].AsNumber(), 1e201);
+  EXPECT_GT(big["ate_rmse"].AsNumber(), 1e197);
+  EXPECT_TRUE(std::isfinite(big["ate_rmse"].AsNumber()));
+
+  const std::string head = "cannot evaluate ";
+  const auto expect_failure = [&](const std::string& est, const std::string& fragment) {
+    ExpectCleanFailure(RunEval("traj --gt " + gt + " --est " + est),
+                       head + est + " against " + gt + ": " + fragment);
+  };
+  expect_failure(WriteTum(dir + "/same.txt", 20, [](int) { return Eigen::Vector3d(1, 2, 3); }),
+                 "all 20 estimate positions are identical");
+  expect_failure(
+      WriteTum(dir + "/line.txt", 20, [](int i) { return Eigen::Vector3d(i, 2.0 * i, 3.0 * i); }),
+      "the 20 estimate positions lie on one line");
+  expect_failure(WriteTum(dir + "/mix.txt", 20,
+                          [&](int i) { return i == 5 ? Eigen::Vector3d(1e300, 1, 2) : curve(i); }),
+                 "the 20 estimate positions lie on one line (collinear within double precision");
+  // 1e-300 against 1e300: each fine on its own, but the scale between them is 1e600.
+  const std::string tiny =
+      WriteTum(dir + "/tiny.txt", 20, [&](int i) { return Eigen::Vector3d(1e-300 * curve(i)); });
+  const std::string huge =
+      WriteTum(dir + "/huge.txt", 20, [&](int i) { return Eigen::Vector3d(1e300 * curve(i)); });
+  ExpectCleanFailure(RunEval("traj --gt " + huge + " --est " + tiny),
+                     "Sim3 scale from the estimate to the ground-truth positions is about 1e600");
+  const std::string two = WriteTum(dir + "/two.txt", 2, curve);
+  ExpectCleanFailure(RunEval("traj --gt " + two + " --est " + two),
+                     "Umeyama alignment needs at least 3 point pairs (not all on one line), got 2");
+  // Values beyond the double range are the reader's error, naming file and line.
+  std::ofstream(dir + "/inf.txt") << "0.0 1 2 3 0 0 0 1\n1.0 1e400 2 3 0 0 0 1\n";
+  ExpectCleanFailure(RunEval("traj --gt " + gt + " --est " + dir + "/inf.txt"),
+                     dir + "/inf.txt:2: number 2 is '1e400', expected a finite value");
+}
+
 TEST(DfoEval, KittiReferenceAnswersThroughTheExecutable) {
   DFO_SKIP_WITHOUT_SHARED_DATA();
   const std::string dir = test::SharedDataDir() + "/reference_trajectories";

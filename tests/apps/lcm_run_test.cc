@@ -180,10 +180,12 @@ TEST(LcmRun, BackendThreadLogReadBackEqualsTheTrajectoryFile) {
                        " --set lcm.log_path=" + log);
   ASSERT_EQ(r.status, 0) << r.out << r.err;
   io::LcmTrajectoryCollector collector;
-  io::ReadLcmLog(log, [&](const std::string& channel, const void* data, size_t size) {
-    collector.Handle(channel, data, size);
-    return true;
-  });
+  const io::LcmLogReadResult read =
+      io::ReadLcmLog(log, [&](const std::string& channel, const void* data, size_t size) {
+        collector.Handle(channel, data, size);
+        return true;
+      });
+  EXPECT_EQ(read.skipped_bytes, 0) << read.Summary();
   const io::JsonValue summary = io::ParseJson(Slurp(out + "/summary.json"), "summary.json");
   EXPECT_EQ(collector.counts().keyframe_batches, summary["keyframes"]["count"].AsInt());
   EXPECT_EQ(summary["keyframes"]["ba_runs"].AsInt() + 1, summary["keyframes"]["count"].AsInt());
@@ -217,7 +219,7 @@ TEST(LcmRun, LogReadBackEqualsTheTrajectoryFiles) {
         const io::LcmCollectorEvent e = collector.Handle(channel, data, size);
         malformed += e.kind == io::LcmCollectorEvent::Kind::kMalformed ? 1 : 0;
         return true;
-      });
+      }).events;
   EXPECT_EQ(malformed, 0);
   // Every message went live and into the log, none failed.
   EXPECT_NE(r.out.find("lcm:         " + std::to_string(events) + " messages"), std::string::npos)
@@ -385,12 +387,73 @@ TEST(LcmListen, MalformedMessagesAreReportedAndSkipped) {
     EXPECT_NE(r.err.find(fragment), std::string::npos) << r.err << "\n  missing: " << fragment;
   }
   EXPECT_NE(r.out.find("3 frames (3 frontend, 0 windowed poses), 0 keyframe batches, 0 status, "
-                       "stop received, 4 malformed skipped, 1 on other channels"),
+                       "stop received, 4 malformed skipped (DFO_KEYFRAMES: 1, DFO_POSE: 3), 1 on "
+                       "other channels"),
             std::string::npos)
       << r.out;
   const Trajectory t = io::ReadTumTrajectory(dir + "/t.txt");
   ASSERT_EQ(t.size(), 3u);
   EXPECT_EQ(t[2].world_from_cam.translation().x(), 2.0);
+}
+
+// A damaged event log (a corrupted event in the middle, garbage, a cut-off last event):
+// dfo_lcm_listen reads every event around the damage and says in one line how much it skipped.
+TEST(LcmListen, DamagedLogIsResynchronisedAndCounted) {
+  const std::string dir = test::MakeTempDir("lcm_damaged");
+  const std::string log = dir + "/damaged.lcmlog";
+  const io::LcmChannels ch;
+  {
+    lcm::LogFile file(log, "w");
+    ASSERT_TRUE(file.good());
+    for (int i = 0; i < 6; ++i) {
+      std::vector<uint8_t> bytes = io::EncodeLcmMessage(io::MakePoseMessage(
+          i, 100000000LL * i, SE3d(SO3d(), Eigen::Vector3d(i, 0, 0)), TrackingStatus::kOk, i == 0,
+          dfo::pose_t::SOURCE_FRONTEND, 0, SE3d()));
+      lcm::LogEvent e;
+      e.eventnum = i;
+      e.timestamp = i;
+      e.channel = ch.pose;
+      e.datalen = static_cast<int32_t>(bytes.size());
+      e.data = bytes.data();
+      ASSERT_EQ(file.writeEvent(&e), 0);
+    }
+  }
+  std::string bytes = Slurp(log);
+  const std::string sync = "\xED\xA1\xDA\x01";
+  std::vector<size_t> starts;
+  for (size_t at = bytes.find(sync); at != std::string::npos; at = bytes.find(sync, at + 1)) {
+    starts.push_back(at);
+  }
+  ASSERT_EQ(starts.size(), 6u);
+  const size_t event_size = starts[1] - starts[0];
+  // Event 2: its sync word and event number overwritten. Before event 4: 13 bytes of garbage.
+  // At the end: the first 20 bytes of another event.
+  bytes.replace(starts[2], 12, std::string(12, 'x'));
+  bytes.insert(starts[4], std::string(13, '\0'));
+  bytes += bytes.substr(starts[0], 20);
+  std::ofstream(log, std::ios::binary) << bytes;
+
+  const CommandResult r =
+      RunCommand(DFO_LCM_LISTEN_EXE, "--quiet --log " + log + " --tum " + dir + "/t.txt");
+  ASSERT_EQ(r.status, 0) << r.out << r.err;
+  const std::string line =
+      "dfo_lcm_listen: warning: " + log + ": skipped " + std::to_string(event_size + 13 + 20) +
+      " corrupted bytes in 3 places (first at byte offset " + std::to_string(starts[2]) +
+      "); read 5 events; the last event is cut off at the end of the file";
+  EXPECT_NE(r.err.find(line), std::string::npos) << r.err << "\n  expected: " << line;
+  EXPECT_NE(r.out.find("5 frames (5 frontend, 0 windowed poses)"), std::string::npos) << r.out;
+  const Trajectory t = io::ReadTumTrajectory(dir + "/t.txt");
+  ASSERT_EQ(t.size(), 5u);
+  EXPECT_EQ(t[2].world_from_cam.translation().x(), 3.0);
+  EXPECT_EQ(t[4].world_from_cam.translation().x(), 5.0);
+
+  // Nothing valid at all: an error, exit status 1.
+  std::ofstream(dir + "/cut.lcmlog", std::ios::binary) << bytes.substr(starts[0], 20);
+  const CommandResult cut = RunCommand(DFO_LCM_LISTEN_EXE, "--log " + dir + "/cut.lcmlog");
+  EXPECT_EQ(cut.status, 1);
+  EXPECT_NE(cut.err.find("no LCM events in " + dir + "/cut.lcmlog: none of its 20 bytes"),
+            std::string::npos)
+      << cut.err;
 }
 
 // Ctrl-C (SIGINT) ends a live listener normally, with the trajectory file written.

@@ -3,7 +3,10 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <limits>
 #include <random>
+#include <string>
+#include <vector>
 
 #include "dfo_core/error.h"
 #include "dfo_core/metrics.h"
@@ -92,6 +95,160 @@ TEST(Alignment, UmeyamaRejectsDegenerateInput) {
   EXPECT_THROW(UmeyamaAlignment(Eigen::Matrix3Xd(3, 4), Eigen::Matrix3Xd(3, 5), true), InputError);
   EXPECT_THROW(UmeyamaAlignment(Eigen::Matrix3Xd::Zero(3, 1), Eigen::Matrix3Xd::Zero(3, 1), true),
                InputError);
+}
+
+// Expects an InputError whose message contains every fragment.
+template <typename F>
+void ExpectInputError(F f, const std::vector<std::string>& fragments) {
+  try {
+    f();
+    ADD_FAILURE() << "no InputError; expected: " << fragments.front();
+  } catch (const InputError& e) {
+    for (const std::string& fragment : fragments) {
+      EXPECT_NE(std::string(e.what()).find(fragment), std::string::npos)
+          << e.what() << "\n  missing: " << fragment;
+    }
+  }
+}
+
+// 50 random points and their image under KnownSim3.
+void KnownPair(Eigen::Matrix3Xd* source, Eigen::Matrix3Xd* target) {
+  std::mt19937 rng(7);
+  std::uniform_real_distribution<double> u(-10.0, 10.0);
+  source->resize(3, 50);
+  target->resize(3, 50);
+  for (int i = 0; i < 50; ++i) {
+    source->col(i) = Eigen::Vector3d(u(rng), u(rng), u(rng));
+    target->col(i) = KnownSim3().Apply(Eigen::Vector3d(source->col(i)));
+  }
+}
+
+// Coordinates of any finite magnitude: centring and power-of-two normalisation before anything is
+// squared make the result exact (bit for bit the ordinary one, scaled) instead of a scale of 0
+// from an overflowed variance (1e300^2 = inf).
+TEST(Alignment, UmeyamaIsExactAtAnyMagnitude) {
+  Eigen::Matrix3Xd source, target;
+  KnownPair(&source, &target);
+  const SimilarityTransform base = UmeyamaAlignment(source, target, true);
+  for (const int e : {-1000, -600, 500, 600, 1000}) {
+    const Eigen::Matrix3Xd big_source =
+        source.unaryExpr([e](double v) { return std::ldexp(v, e); });
+    const SimilarityTransform s = UmeyamaAlignment(big_source, target, true);
+    EXPECT_EQ(s.scale, std::ldexp(base.scale, -e)) << e;
+    EXPECT_EQ(s.rotation, base.rotation) << e;
+    EXPECT_LT((s.translation - base.translation).norm(), 1e-10) << e;
+    const Eigen::Matrix3Xd big_target =
+        target.unaryExpr([e](double v) { return std::ldexp(v, e); });
+    const SimilarityTransform t = UmeyamaAlignment(source, big_target, true);
+    EXPECT_EQ(t.scale, std::ldexp(base.scale, e)) << e;
+    EXPECT_EQ(t.rotation, base.rotation) << e;
+    EXPECT_TRUE(t.translation.allFinite()) << e;
+    // Both huge (or tiny): the scale between them is the ordinary one.
+    const SimilarityTransform both = UmeyamaAlignment(big_source, big_target, true);
+    EXPECT_EQ(both.scale, base.scale) << e;
+    EXPECT_EQ(both.rotation, base.rotation) << e;
+  }
+  // Decimal magnitudes, not exactly representable scalings: still right to rounding.
+  const SimilarityTransform s300 = UmeyamaAlignment(source * 1e300, target, true);
+  EXPECT_NEAR(s300.scale * 1e300, KnownSim3().scale, 1e-12);
+  EXPECT_LT((s300.rotation - KnownSim3().rotation).norm(), 1e-12);
+  const SimilarityTransform s150 = UmeyamaAlignment(source, target * 1e150, true);
+  EXPECT_NEAR(s150.scale / 1e150, KnownSim3().scale, 1e-12);
+  // Far from the origin (UTM-like), moving by metres: the centring keeps the metres.
+  Eigen::Matrix3Xd far = source;
+  far.colwise() += Eigen::Vector3d(4.0e6, 5.0e6, 100.0);
+  const SimilarityTransform s_far = UmeyamaAlignment(far, target, true);
+  EXPECT_NEAR(s_far.scale, KnownSim3().scale, 1e-9);
+  EXPECT_LT((s_far.rotation - KnownSim3().rotation).norm(), 1e-9);
+}
+
+// Inputs for which no alignment means anything: one InputError naming the point set and the
+// reason, never a result with a scale of 0, inf or NaN.
+TEST(Alignment, UmeyamaRejectsNumericallyMeaninglessInput) {
+  Eigen::Matrix3Xd source, target;
+  KnownPair(&source, &target);
+  const double inf = std::numeric_limits<double>::infinity();
+  const double nan = std::numeric_limits<double>::quiet_NaN();
+  for (const double bad : {inf, -inf, nan}) {
+    Eigen::Matrix3Xd s = source;
+    s(1, 3) = bad;
+    ExpectInputError([&] { UmeyamaAlignment(s, target, true, "estimate", "ground-truth"); },
+                     {"estimate position 3 is not finite"});
+    ExpectInputError([&] { UmeyamaAlignment(target, s, true, "estimate", "ground-truth"); },
+                     {"ground-truth position 3 is not finite"});
+  }
+  // All identical, also at 1e300 and up to the last bits of the coordinates.
+  for (const double magnitude : {1.0, 1e300, 1e-300}) {
+    Eigen::Matrix3Xd same(3, 10);
+    same.colwise() = magnitude * Eigen::Vector3d(1, 2, 3);
+    ExpectInputError([&] { UmeyamaAlignment(same, source.leftCols(10), true); },
+                     {"all 10 source positions are identical", "positions that move"});
+  }
+  Eigen::Matrix3Xd rounding(3, 10);
+  for (int i = 0; i < 10; ++i) {
+    rounding.col(i) = Eigen::Vector3d(1e16 + 2.0 * (i % 2), 3e16, -5e16 + 8.0 * (i % 3));
+  }
+  ExpectInputError([&] { UmeyamaAlignment(source.leftCols(10), rounding, false); },
+                   {"all 10 target positions are identical up to rounding"});
+  // Collinear: exactly, and within double precision (one coordinate of 1e300 among metres).
+  Eigen::Matrix3Xd line(3, 20);
+  for (int i = 0; i < 20; ++i) line.col(i) = Eigen::Vector3d(0.1, 0.2, 0.3) * i + source.col(0);
+  ExpectInputError([&] { UmeyamaAlignment(line, source.leftCols(20), true); },
+                   {"the 20 source positions lie on one line", "span a plane"});
+  Eigen::Matrix3Xd outlier = source.leftCols(20);
+  outlier(0, 7) = 1e300;
+  ExpectInputError([&] { UmeyamaAlignment(source.leftCols(20), outlier, true); },
+                   {"the 20 target positions lie on one line", "e+299 from their mean"});
+  // Two points always lie on one line.
+  ExpectInputError([&] { UmeyamaAlignment(source.leftCols(2), target.leftCols(2), false); },
+                   {"at least 3 point pairs", "got 2"});
+  // Planar sets whose motions are uncorrelated: the covariance is 0.
+  Eigen::Matrix3Xd x(3, 6), y(3, 6);
+  x << 1, -1, 0, 0, 1, -1,  //
+      0, 0, 1, -1, 1, -1,   //
+      0, 0, 0, 0, 0, 0;
+  y << 1, 1, -1, -1, 0, 0,  //
+      0, 0, 0, 0, 1, 1,     //
+      0, 0, 0, 0, 0, 0;
+  ExpectInputError([&] { UmeyamaAlignment(x, y, true); },
+                   {"degenerate covariance rank 0", "uncorrelated"});
+  // A scale beyond the double range (1e-300 to 1e300 sized trajectories).
+  ExpectInputError(
+      [&] { UmeyamaAlignment(source * 1e-300, target * 1e300, true, "estimate", "ground-truth"); },
+      {"Sim3 scale from the estimate to the ground-truth positions is about 1e600"});
+  ExpectInputError([&] { UmeyamaAlignment(source * 1e300, target * 1e-300, true); },
+                   {"is about 1e-600"});
+}
+
+// AlignTrajectory names the estimate and the ground truth; every pose it returns is finite.
+TEST(Alignment, AlignTrajectoryNamesTheTrajectoryAndStaysFinite) {
+  const Trajectory gt = RandomTrajectory(30, 4);
+  Trajectory est;
+  for (const auto& p : gt)
+    est.Add(p.timestamp_ns, SE3d(p.world_from_cam.so3(), Eigen::Vector3d(1, 2, 3)));
+  TrajectoryAlignmentOptions options;
+  options.type = AlignmentType::kSim3;
+  ExpectInputError([&] { AlignTrajectory(est, gt, options); },
+                   {"all 30 estimate positions are identical"});
+  ExpectInputError([&] { AlignTrajectory(gt, est, options); },
+                   {"all 30 ground-truth positions are identical"});
+  // Fitted on the first 10 poses, a later pose of 1e300 cannot be mapped by a scale of 1e10.
+  Trajectory huge_tail = TransformTrajectory(gt, [] {
+    SimilarityTransform s;
+    s.scale = 1e-10;
+    return s;
+  }());
+  huge_tail[25].world_from_cam.translation() = Eigen::Vector3d(1e300, 0, 0);
+  options.num_poses_to_align = 10;
+  ExpectInputError([&] { AlignTrajectory(huge_tail, gt, options); },
+                   {"estimate pose 25", "not representable"});
+  // A trajectory scaled by 1e300 is aligned back exactly (scale 1e-300, ATE ~ 0).
+  options.num_poses_to_align = 0;
+  SimilarityTransform up;
+  up.scale = 1e300;
+  const TrajectoryAlignment a = AlignTrajectory(TransformTrajectory(gt, up), gt, options);
+  EXPECT_NEAR(a.transform.scale * 1e300, 1.0, 1e-12);
+  EXPECT_LT(ComputeAte(gt, a.aligned_estimate).stats.max, 1e-10);
 }
 
 TEST(Alignment, KnownSim3OnTrajectoryIsRecoveredWithZeroAte) {

@@ -3,7 +3,9 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <limits>
 #include <random>
+#include <string>
 
 #include "dfo_core/alignment.h"
 #include "dfo_core/error.h"
@@ -52,6 +54,81 @@ TEST(Statistics, MatchNumpyDefinitions) {
   EXPECT_EQ(empty.count, 0u);
   EXPECT_TRUE(std::isnan(empty.rmse));
   EXPECT_TRUE(std::isnan(empty.median));
+}
+
+// Errors beyond 1e154 square to inf: the statistics are computed on values scaled by a power of
+// two instead, so they stay right wherever the result is representable.
+TEST(Statistics, HugeErrorsDoNotOverflow) {
+  const ErrorStatistics s = ComputeStatistics({4e200, 1e200, 3e200, 2e200});
+  EXPECT_DOUBLE_EQ(s.rmse, std::sqrt(7.5) * 1e200);
+  EXPECT_DOUBLE_EQ(s.mean, 2.5e200);
+  EXPECT_DOUBLE_EQ(s.std, std::sqrt(1.25) * 1e200);
+  EXPECT_EQ(s.max, 4e200);
+  EXPECT_TRUE(std::isinf(s.sse));  // the sum of squares itself is beyond the double range
+  const ErrorStatistics near_max = ComputeStatistics({1.5e308, 1.7e308, 1.6e308});
+  EXPECT_DOUBLE_EQ(near_max.mean, 1.6e308);
+  EXPECT_TRUE(std::isfinite(near_max.rmse));
+  EXPECT_TRUE(std::isfinite(near_max.std));
+  const ErrorStatistics tiny = ComputeStatistics({3e-200, 4e-200});
+  EXPECT_DOUBLE_EQ(tiny.rmse, std::sqrt(12.5) * 1e-200);
+}
+
+// Every metric of a pair scaled by 2^600 (about 4e180) is the ordinary one scaled, instead of
+// n/a or 0 from squares that overflowed.
+TEST(Metrics, ExactAtAnyMagnitude) {
+  Trajectory gt = Curvy(40, 3);
+  Trajectory est = gt;
+  std::mt19937 rng(2);
+  std::normal_distribution<double> noise(0.0, 0.1);
+  for (auto& p : est.poses()) {
+    p.world_from_cam =
+        p.world_from_cam * SE3d::Exp((Vector6d() << noise(rng), noise(rng), noise(rng),
+                                      0.1 * noise(rng), 0.1 * noise(rng), 0.1 * noise(rng))
+                                         .finished());
+  }
+  // Both through TransformTrajectory (which rebuilds the rotations), with scale 1 and 2^600.
+  SimilarityTransform up;
+  gt = TransformTrajectory(gt, up);
+  est = TransformTrajectory(est, up);
+  up.scale = std::ldexp(1.0, 600);
+  const Trajectory big_gt = TransformTrajectory(gt, up);
+  const Trajectory big_est = TransformTrajectory(est, up);
+  // Relative 1e-12: the relative poses (T_i^-1 T_j) are rounded differently at the two scales.
+  const auto expect_scaled = [](double big, double base) {
+    EXPECT_NEAR(big / std::ldexp(base, 600), 1.0, 1e-12) << big << " vs " << base;
+  };
+  const AteResult ate = ComputeAte(gt, est), big_ate = ComputeAte(big_gt, big_est);
+  expect_scaled(big_ate.stats.rmse, ate.stats.rmse);
+  expect_scaled(big_ate.stats.std, ate.stats.std);
+  expect_scaled(big_ate.stats.max, ate.stats.max);
+  const RpeResult rpe = ComputeRpe(gt, est), big_rpe = ComputeRpe(big_gt, big_est);
+  expect_scaled(big_rpe.translation.rmse, rpe.translation.rmse);
+  EXPECT_NEAR(big_rpe.rotation_deg.rmse, rpe.rotation_deg.rmse, 1e-12);
+  const SnippetAteResult snippet = ComputeSnippetAte(gt, est);
+  const SnippetAteResult big_snippet = ComputeSnippetAte(big_gt, big_est);
+  expect_scaled(big_snippet.mean, snippet.mean);
+  expect_scaled(big_gt.PathLength(), gt.PathLength());
+  const KittiOdometryResult big_kitti = ComputeKittiOdometryErrors(big_gt, big_est);
+  EXPECT_GT(big_kitti.num_segments, 0u);
+  EXPECT_TRUE(std::isfinite(big_kitti.t_rel_pct));
+}
+
+// A difference of positions beyond the double range is an InputError naming the pose, not an
+// ATE of inf.
+TEST(Ate, ErrorBeyondTheDoubleRangeIsAnInputError) {
+  Trajectory gt = Curvy(5, 1), est = gt;
+  gt[3].world_from_cam.translation().x() = 1.7e308;
+  est[3].world_from_cam.translation().x() = -1.7e308;
+  try {
+    ComputeAte(gt, est);
+    FAIL() << "no error";
+  } catch (const InputError& e) {
+    EXPECT_NE(std::string(e.what()).find("ATE: the error of pose 3 is inf"), std::string::npos)
+        << e.what();
+  }
+  est[3].world_from_cam.translation().x() = std::numeric_limits<double>::quiet_NaN();
+  EXPECT_THROW(ComputeAte(gt, est), InputError);
+  EXPECT_THROW(ComputeRpe(gt, est), InputError);
 }
 
 TEST(Ate, IdentityIsZeroAndOffsetIsItsLength) {

@@ -3,12 +3,18 @@
 // written by LcmPublisher read back, and the trajectory collector behind dfo_lcm_listen
 // (windowed history corrected by keyframe batches, bad messages skipped).
 #include <gtest/gtest.h>
+#include <sys/resource.h>
+#include <unistd.h>
 
+#include <algorithm>
 #include <cmath>
+#include <cstdlib>
 #include <cstring>
 #include <filesystem>
+#include <fstream>
 #include <lcm/lcm-cpp.hpp>
 #include <limits>
+#include <map>
 #include <random>
 #include <string>
 #include <vector>
@@ -354,6 +360,9 @@ TEST(LcmCollector, InvalidValuesAreReportedAndSkipped) {
   expect_malformed(ch.pose, SomeStatus(), "DFO_POSE: a dfo.run_status_t where dfo.pose_t");
   expect_malformed(ch.stop, SomePoseMessage(1), "DFO_STOP: a dfo.pose_t where dfo.stop_t");
   EXPECT_EQ(c.counts().malformed, 7);
+  // Counted by channel too.
+  const std::map<std::string, int64_t> by_channel = {{ch.pose, 5}, {ch.keyframes, 1}, {ch.stop, 1}};
+  EXPECT_EQ(c.counts().malformed_by_channel, by_channel);
   EXPECT_EQ(c.num_windowed_frames(), 0u);
   EXPECT_EQ(c.counts().keyframe_batches, 0);
   EXPECT_FALSE(c.stopped());
@@ -440,22 +449,317 @@ TEST(LcmTransport, PublisherLogReadsBack) {
   }
   LcmTrajectoryCollector collector;
   std::vector<std::string> channels;
-  const int64_t events =
+  const LcmLogReadResult read =
       ReadLcmLog(options.log_path, [&](const std::string& channel, const void* data, size_t size) {
         channels.push_back(channel);
         EXPECT_NE(collector.Handle(channel, data, size).kind, LcmCollectorEvent::Kind::kMalformed);
         return true;
       });
-  EXPECT_EQ(events, 6);
+  EXPECT_EQ(read.events, 6);
+  EXPECT_EQ(read.skipped_bytes, 0);
+  EXPECT_EQ(read.skipped_places, 0);
+  EXPECT_FALSE(read.stopped_early);
+  EXPECT_EQ(read.Summary(), options.log_path + ": read 6 events");
   ASSERT_EQ(channels.size(), 6u);
   EXPECT_EQ(channels[4], ch.keyframes);
   EXPECT_EQ(collector.num_windowed_frames(), 4u);
   EXPECT_TRUE(collector.stopped());
   // Stopping early.
   int seen = 0;
-  EXPECT_EQ(ReadLcmLog(options.log_path,
-                       [&](const std::string&, const void*, size_t) { return ++seen < 2; }),
-            2);
+  const LcmLogReadResult stopped = ReadLcmLog(
+      options.log_path, [&](const std::string&, const void*, size_t) { return ++seen < 2; });
+  EXPECT_EQ(stopped.events, 2);
+  EXPECT_TRUE(stopped.stopped_early);
+}
+
+// ---------------------------------------------------------------------------------------------
+// Event logs with damage: every byte is either in an event handed over or counted as skipped.
+
+void AppendBigEndian(std::vector<uint8_t>* out, uint64_t v, int bytes) {
+  for (int i = bytes - 1; i >= 0; --i) out->push_back(static_cast<uint8_t>(v >> (8 * i)));
+}
+
+// One event as LCM's eventlog.c writes it.
+std::vector<uint8_t> LogEventBytes(int64_t number, const std::string& channel,
+                                   const std::vector<uint8_t>& data) {
+  std::vector<uint8_t> e;
+  AppendBigEndian(&e, kLcmLogSyncWord, 4);
+  AppendBigEndian(&e, static_cast<uint64_t>(number), 8);
+  AppendBigEndian(&e, static_cast<uint64_t>(1000 * number), 8);
+  AppendBigEndian(&e, channel.size(), 4);
+  AppendBigEndian(&e, data.size(), 4);
+  e.insert(e.end(), channel.begin(), channel.end());
+  e.insert(e.end(), data.begin(), data.end());
+  return e;
+}
+
+// A log of `n` events on channels E0, E1, ... with data of 40 + i bytes; offsets[i] is where
+// event i begins (offsets[n] = the size).
+struct TestLog {
+  std::vector<uint8_t> bytes;
+  std::vector<int64_t> offsets;
+};
+TestLog MakeTestLog(int n) {
+  TestLog log;
+  for (int i = 0; i < n; ++i) {
+    log.offsets.push_back(static_cast<int64_t>(log.bytes.size()));
+    std::vector<uint8_t> data;
+    for (int k = 0; k < 40 + i; ++k) data.push_back(static_cast<uint8_t>(i * 7 + k));
+    const std::vector<uint8_t> e = LogEventBytes(i, "E" + std::to_string(i), data);
+    log.bytes.insert(log.bytes.end(), e.begin(), e.end());
+  }
+  log.offsets.push_back(static_cast<int64_t>(log.bytes.size()));
+  return log;
+}
+
+std::string WriteBytes(const std::string& name, const std::vector<uint8_t>& bytes) {
+  const std::string path = test::MakeTempDir("lcm_event_log") + "/" + name;
+  std::ofstream out(path, std::ios::binary);
+  out.write(reinterpret_cast<const char*>(bytes.data()),
+            static_cast<std::streamsize>(bytes.size()));
+  return path;
+}
+
+// Reads a log; the channels of the events handed over, each checked against its data.
+std::vector<std::string> ReadChannels(const std::string& path, LcmLogReadResult* result) {
+  std::vector<std::string> channels;
+  *result = ReadLcmLog(path, [&](const std::string& channel, const void* data, size_t size) {
+    channels.push_back(channel);
+    const int i = std::stoi(channel.substr(1));
+    EXPECT_EQ(size, static_cast<size_t>(40 + i)) << channel;
+    const auto* bytes = static_cast<const uint8_t*>(data);
+    for (size_t k = 0; k < size; ++k) {
+      if (bytes[k] != static_cast<uint8_t>(i * 7 + k)) {
+        ADD_FAILURE() << channel << " byte " << k;
+        break;
+      }
+    }
+    return true;
+  });
+  return channels;
+}
+
+std::vector<std::string> ChannelsExcept(int n, const std::vector<int>& missing) {
+  std::vector<std::string> out;
+  for (int i = 0; i < n; ++i) {
+    if (std::find(missing.begin(), missing.end(), i) == missing.end()) {
+      out.push_back("E" + std::to_string(i));
+    }
+  }
+  return out;
+}
+
+TEST(LcmEventLog, IntactLogReadsEveryEvent) {
+  const TestLog log = MakeTestLog(10);
+  LcmLogReadResult r;
+  EXPECT_EQ(ReadChannels(WriteBytes("ok.lcmlog", log.bytes), &r), ChannelsExcept(10, {}));
+  EXPECT_EQ(r.events, 10);
+  EXPECT_EQ(r.skipped_bytes, 0);
+  EXPECT_EQ(r.skipped_places, 0);
+  EXPECT_EQ(r.first_skipped_offset, -1);
+  EXPECT_EQ(r.file_bytes, log.offsets[10]);
+}
+
+// Bytes overwritten over the sync word of event 4: event 4 is lost, counted, and the reader
+// resynchronises on event 5; event 3 before it is read.
+TEST(LcmEventLog, CorruptedBytesInTheMiddleAreSkippedAndCounted) {
+  TestLog log = MakeTestLog(10);
+  for (int64_t k = log.offsets[4] + 1; k < log.offsets[4] + 9; ++k) log.bytes[k] = 0x55;
+  const std::string path = WriteBytes("middle.lcmlog", log.bytes);
+  LcmLogReadResult r;
+  EXPECT_EQ(ReadChannels(path, &r), ChannelsExcept(10, {4}));
+  EXPECT_EQ(r.events, 9);
+  EXPECT_EQ(r.skipped_places, 1);
+  EXPECT_EQ(r.first_skipped_offset, log.offsets[4]);
+  EXPECT_EQ(r.skipped_bytes, log.offsets[5] - log.offsets[4]);
+  EXPECT_FALSE(r.cut_off_at_end);
+  EXPECT_EQ(r.Summary(), path + ": skipped " + std::to_string(r.skipped_bytes) +
+                             " corrupted bytes in 1 place (first at byte offset " +
+                             std::to_string(log.offsets[4]) + "); read 9 events");
+  // Damage in two places, one of them spanning the end of event 6 and the header of event 7:
+  // event 6 is still handed over (its data damaged: the decoder's business), 7 is skipped.
+  for (int64_t k = log.offsets[7] - 5; k < log.offsets[7] + 12; ++k) log.bytes[k] = 0;
+  std::vector<std::string> channels;
+  r = ReadLcmLog(WriteBytes("two.lcmlog", log.bytes),
+                 [&](const std::string& channel, const void*, size_t) {
+                   channels.push_back(channel);
+                   return true;
+                 });
+  EXPECT_EQ(channels, ChannelsExcept(10, {4, 7}));
+  EXPECT_EQ(r.skipped_places, 2);
+  EXPECT_EQ(r.skipped_bytes, log.offsets[5] - log.offsets[4] + log.offsets[8] - log.offsets[7]);
+  EXPECT_EQ(r.first_skipped_offset, log.offsets[4]);
+}
+
+TEST(LcmEventLog, GarbageBetweenEventsIsSkipped) {
+  TestLog log = MakeTestLog(8);
+  std::vector<uint8_t> garbage(37, 0xab);
+  // A stray sync word inside the garbage: the bytes after it make no possible header.
+  garbage[10] = 0xED;
+  garbage[11] = 0xA1;
+  garbage[12] = 0xDA;
+  garbage[13] = 0x01;
+  log.bytes.insert(log.bytes.begin() + log.offsets[2], garbage.begin(), garbage.end());
+  // And more at the very end, and in a second place in the middle.
+  log.bytes.insert(log.bytes.end(), {1, 2, 3, 4, 5, 6, 7});
+  log.bytes.insert(log.bytes.begin() + log.offsets[6] + static_cast<int64_t>(garbage.size()),
+                   {9, 9});
+  LcmLogReadResult r;
+  EXPECT_EQ(ReadChannels(WriteBytes("garbage.lcmlog", log.bytes), &r), ChannelsExcept(8, {}));
+  EXPECT_EQ(r.events, 8);
+  EXPECT_EQ(r.skipped_places, 3);
+  EXPECT_EQ(r.skipped_bytes, static_cast<int64_t>(garbage.size()) + 2 + 7);
+  EXPECT_EQ(r.first_skipped_offset, log.offsets[2]);
+  EXPECT_FALSE(r.cut_off_at_end);
+}
+
+TEST(LcmEventLog, TruncatedLastEventIsCountedAsCutOff) {
+  TestLog log = MakeTestLog(6);
+  for (const int64_t cut : {log.offsets[5] + 2, log.offsets[5] + 20, log.offsets[6] - 1}) {
+    const std::vector<uint8_t> bytes(log.bytes.begin(), log.bytes.begin() + cut);
+    const std::string path = WriteBytes("cut.lcmlog", bytes);
+    LcmLogReadResult r;
+    EXPECT_EQ(ReadChannels(path, &r), ChannelsExcept(5, {})) << cut;
+    EXPECT_EQ(r.skipped_places, 1);
+    EXPECT_EQ(r.skipped_bytes, cut - log.offsets[5]);
+    EXPECT_EQ(r.first_skipped_offset, log.offsets[5]);
+    EXPECT_TRUE(r.cut_off_at_end) << cut;
+    EXPECT_NE(r.Summary().find("; read 5 events; the last event is cut off at the end of the file"),
+              std::string::npos)
+        << r.Summary();
+  }
+}
+
+// Length fields that cannot be right: negative, zero or too long a channel, a data length of
+// 2^31 - 1 or one byte beyond the file. Each event is skipped, the others read.
+TEST(LcmEventLog, AbsurdLengthsAreSkipped) {
+  const TestLog log = MakeTestLog(6);
+  const int64_t at = log.offsets[2];
+  const auto with_field = [&](int64_t field_offset, uint32_t value) {
+    std::vector<uint8_t> bytes = log.bytes;
+    std::vector<uint8_t> v;
+    AppendBigEndian(&v, value, 4);
+    std::copy(v.begin(), v.end(), bytes.begin() + at + field_offset);
+    return bytes;
+  };
+  const uint32_t beyond = static_cast<uint32_t>(log.offsets[6] - at - 28 - 2 + 1);
+  // Fits the file, but would swallow event 3 and end inside event 4.
+  const uint32_t swallowing = static_cast<uint32_t>(log.offsets[4] + 10 - at - 28 - 2);
+  for (const auto& [field, value] : std::vector<std::pair<int64_t, uint32_t>>{
+           {20, 0xffffffffu},  // channel length -1
+           {20, 0},            // empty channel
+           {20, 1000},         // beyond LCM's limit
+           {24, 0x80000000u},  // data length < 0
+           {24, 0x7fffffffu},  // 2^31 - 1
+           {24, beyond},       // one byte beyond the end of the file
+           {24, swallowing}}) {
+    LcmLogReadResult r;
+    EXPECT_EQ(ReadChannels(WriteBytes("lengths.lcmlog", with_field(field, value)), &r),
+              ChannelsExcept(6, {2}))
+        << field << " = " << value;
+    EXPECT_EQ(r.skipped_places, 1);
+    EXPECT_EQ(r.skipped_bytes, log.offsets[3] - log.offsets[2]);
+    EXPECT_EQ(r.first_skipped_offset, at);
+  }
+}
+
+// Random damage (overwritten, inserted and removed bytes, fixed seed): never a crash, and every
+// byte is either in an event handed over or counted as skipped.
+TEST(LcmEventLog, RandomDamageAccountsForEveryByte) {
+  const TestLog log = MakeTestLog(20);
+  std::mt19937 rng(5);
+  for (int trial = 0; trial < 300; ++trial) {
+    std::vector<uint8_t> bytes = log.bytes;
+    const int damages = 1 + static_cast<int>(rng() % 4);
+    for (int d = 0; d < damages; ++d) {
+      const size_t at = rng() % bytes.size();
+      const size_t n = 1 + rng() % 40;
+      switch (rng() % 3) {
+        case 0:
+          for (size_t k = at; k < std::min(bytes.size(), at + n); ++k) {
+            bytes[k] = static_cast<uint8_t>(rng());
+          }
+          break;
+        case 1:
+          for (size_t k = 0; k < n; ++k) {
+            bytes.insert(bytes.begin() + static_cast<std::ptrdiff_t>(at),
+                         static_cast<uint8_t>(rng()));
+          }
+          break;
+        default:
+          bytes.erase(bytes.begin() + static_cast<std::ptrdiff_t>(at),
+                      bytes.begin() + static_cast<std::ptrdiff_t>(std::min(bytes.size(), at + n)));
+          break;
+      }
+    }
+    const std::string path = WriteBytes("random.lcmlog", bytes);
+    int64_t event_bytes = 0;
+    try {
+      const LcmLogReadResult r =
+          ReadLcmLog(path, [&](const std::string& channel, const void*, size_t size) {
+            event_bytes += 28 + static_cast<int64_t>(channel.size() + size);
+            return true;
+          });
+      EXPECT_EQ(event_bytes + r.skipped_bytes, static_cast<int64_t>(bytes.size())) << trial;
+      EXPECT_GE(r.events, 1);
+    } catch (const InputError& e) {
+      EXPECT_NE(std::string(e.what()).find("no LCM events in"), std::string::npos) << e.what();
+    }
+  }
+}
+
+// In a child process: limits the address space to what is mapped now plus 256 MiB, checks that a
+// 2 GiB allocation fails there, then reads `path`. Exit status 0 when the read gave 5 events.
+int ReadUnderAddressSpaceLimit(const std::string& path) {
+  std::ifstream statm("/proc/self/statm");
+  uint64_t pages = 0;
+  statm >> pages;
+  const rlim_t limit = pages * static_cast<uint64_t>(sysconf(_SC_PAGESIZE)) + (uint64_t{256} << 20);
+  rlimit rl{};
+  rl.rlim_cur = rl.rlim_max = limit;
+  if (setrlimit(RLIMIT_AS, &rl) != 0) return 2;
+  void* probe = std::malloc(size_t{1} << 31);
+  if (probe != nullptr) return 3;  // the limit would prove nothing
+  try {
+    const auto ignore = [](const std::string&, const void*, size_t) { return true; };
+    return ReadLcmLog(path, ignore).events == 5 ? 0 : 5;
+  } catch (...) {
+    return 4;
+  }
+}
+
+// A data length of 2^31 - 1 in a small file allocates nothing near it: the read passes under an
+// address-space limit that a 2 GiB allocation does not.
+TEST(LcmEventLog, HugeLengthFieldDoesNotAllocate) {
+  TestLog log = MakeTestLog(6);
+  std::vector<uint8_t> v;
+  AppendBigEndian(&v, 0x7fffffffu, 4);
+  std::copy(v.begin(), v.end(), log.bytes.begin() + log.offsets[1] + 24);
+  const std::string path = WriteBytes("huge.lcmlog", log.bytes);
+  GTEST_FLAG_SET(death_test_style, "threadsafe");
+  EXPECT_EXIT(std::exit(ReadUnderAddressSpaceLimit(path)), ::testing::ExitedWithCode(0), "");
+}
+
+TEST(LcmEventLog, EmptyFileAndNotALogAreErrors) {
+  const auto expect_error = [](const std::string& path, const std::string& fragment) {
+    try {
+      ReadLcmLog(path, [](const std::string&, const void*, size_t) { return true; });
+      ADD_FAILURE() << "no error for " << path;
+    } catch (const InputError& e) {
+      EXPECT_NE(std::string(e.what()).find(fragment), std::string::npos) << e.what();
+    }
+  };
+  const std::string empty = WriteBytes("empty.lcmlog", {});
+  expect_error(empty, "no LCM events in " + empty + ": the file is empty");
+  const std::string text = "time,x,y\n0.1,2,3\n";
+  const std::string csv = WriteBytes("x.csv", std::vector<uint8_t>(text.begin(), text.end()));
+  expect_error(csv, "no LCM events in " + csv + ": none of its 17 bytes forms a valid event");
+  // One event, cut off: nothing valid either.
+  const TestLog log = MakeTestLog(1);
+  const std::string cut =
+      WriteBytes("cut.lcmlog", std::vector<uint8_t>(log.bytes.begin(), log.bytes.begin() + 30));
+  expect_error(cut, "no LCM events in " + cut);
+  expect_error(test::MakeTempDir("lcm_log_folder"), "is a folder");
 }
 
 TEST(LcmTransport, UnopenableUrlsAndLogsAreClearErrors) {
