@@ -190,7 +190,8 @@ void PrintComparison(const apps::SequenceRunResult& result, const apps::RunOutpu
   const auto row = [&](const char* label, auto value, int decimals) {
     std::printf("  %-28s", label);
     for (const Column& c : columns) {
-      std::printf(" %14s", apps::FormatFixed(value(*c.evaluation), decimals).c_str());
+      // Exponent form outside 1e-3..1e6 (a Sim3 scale of 1e-5 is not 0.0000).
+      std::printf(" %14s", apps::FormatScale(value(*c.evaluation), decimals).c_str());
     }
     std::printf("\n");
   };
