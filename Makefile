@@ -15,7 +15,8 @@ demo: build
 	./tools/run_demo.sh $(BUILD_DIR) $(DEMO_DIR)
 
 test: build
-	cd $(BUILD_DIR) && ctest --output-on-failure -j$(JOBS)
+	cd $(BUILD_DIR) && status=0 && { ctest --output-on-failure -j$(JOBS) || status=$$?; } && \
+	  $(CURDIR)/tools/test_skips.sh Testing/Temporary/LastTest.log && exit $$status
 
 deps:
 	./tools/install_deps.sh
