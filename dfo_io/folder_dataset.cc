@@ -17,7 +17,7 @@ Sequence OpenFolderSequence(const DatasetOptions& options) {
   if (!fs::is_directory(root, ec)) throw InputError("image folder not found: " + options.path);
   const std::string what = "image folder " + options.path;
   const fs::path camera_path = CameraYamlPath(options, (root / "camera.yaml").string());
-  if (!fs::is_regular_file(camera_path, ec)) {
+  if (!fs::exists(camera_path, ec)) {  // a file, or a pipe (ReadCameraYaml reads both)
     throw InputError(what + ": camera file not found: " + camera_path.string() +
                      " (needs fx, fy, cx, cy, width, height)");
   }

@@ -90,7 +90,7 @@ Sequence OpenVideoSequence(const DatasetOptions& options) {
   const fs::path beside = fs::path(options.path).parent_path() / "camera.yaml";
   const std::string camera_path = CameraYamlPath(options, beside.string());
   std::error_code ec;
-  if (!fs::is_regular_file(camera_path, ec)) {
+  if (!fs::exists(camera_path, ec)) {  // a file, or a pipe (ReadCameraYaml reads both)
     throw InputError(what + ": camera file not found: " + camera_path +
                      " (needs fx, fy, cx, cy, width, height; by default camera.yaml beside the "
                      "video, or name it with dataset.camera)");
