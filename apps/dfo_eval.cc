@@ -328,6 +328,16 @@ int RunTraj(int argc, char** argv) {
   } else {
     std::cout << "snippet ATE   not computed: fewer than 5 poses\n";
   }
+  const ScaleDriftResult& drift = evaluation.scale_drift;
+  if (drift.ratios.size() >= 2) {
+    std::cout << "scale drift   log std " << Fixed(drift.log_std, 4) << "  min "
+              << Fixed(drift.min, 3) << "  max " << Fixed(drift.max, 3) << "  ("
+              << drift.ratios.size() << " stretches of " << Fixed(drift.segment_length_m, 0)
+              << " m: estimated / true path length after the alignment)\n";
+  } else {
+    std::cout << "scale drift   not computed: fewer than two " << Fixed(drift.segment_length_m, 0)
+              << " m stretches of ground-truth path\n";
+  }
   if (opt.Has("--plot")) std::cout << "plot:         " << opt.Get("--plot", "") << "\n";
   return 0;
 }

@@ -229,6 +229,11 @@ void PrintComparison(const apps::SequenceRunResult& result, const apps::RunOutpu
         "KITTI r_rel [deg/100m]",
         [](const apps::RunEvaluation& e) { return e.sim3.kitti.r_rel_deg_per_100m; }, 3);
   }
+  if (columns.front().evaluation->sim3.scale_drift.ratios.size() >= 2) {
+    row(
+        "scale drift (log std, 50 m)",
+        [](const apps::RunEvaluation& e) { return e.sim3.scale_drift.log_std; }, 3);
+  }
   std::fflush(stdout);
 }
 

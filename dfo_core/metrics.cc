@@ -382,4 +382,59 @@ SnippetAteResult ComputeSnippetAte(const Trajectory& ground_truth, const Traject
   return result;
 }
 
+constexpr int kScaleDriftChords = 5;
+
+ScaleDriftResult ComputeScaleDrift(const Trajectory& ground_truth, const Trajectory& estimate,
+                                   double segment_length_m) {
+  CheckSameSize(ground_truth, estimate, "scale drift");
+  if (!(segment_length_m > 0.0) || !std::isfinite(segment_length_m)) {
+    throw InputError("scale drift: the stretch length must be > 0 m, got " +
+                     std::to_string(segment_length_m));
+  }
+  constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
+  ScaleDriftResult result;
+  result.segment_length_m = segment_length_m;
+  // Lengths along chords between poses a fifth of a stretch apart, not frame to frame: per-frame
+  // jitter would lengthen the estimate's path and read as scale.
+  const double chord_m = segment_length_m / kScaleDriftChords;
+  const auto position = [](const Trajectory& t, size_t i) {
+    return t[i].world_from_cam.translation();
+  };
+  double gt_length = 0.0, est_length = 0.0, gt_since_sample = 0.0;
+  size_t first = 0, sample = 0;
+  for (size_t i = 1; i < ground_truth.size(); ++i) {
+    gt_since_sample += RobustNorm(position(ground_truth, i) - position(ground_truth, i - 1));
+    if (gt_since_sample < chord_m) continue;
+    gt_length += RobustNorm(position(ground_truth, i) - position(ground_truth, sample));
+    est_length += RobustNorm(position(estimate, i) - position(estimate, sample));
+    gt_since_sample = 0.0;
+    sample = i;
+    if (gt_length >= segment_length_m * (1.0 - 1e-9) || i + 1 == ground_truth.size()) {
+      if (gt_length >= segment_length_m * (1.0 - 1e-9)) {
+        result.ratios.push_back(est_length / gt_length);
+        result.first_index.push_back(first);
+      }
+      gt_length = est_length = 0.0;
+      first = i;
+    }
+  }
+  if (result.ratios.empty()) {
+    result.log_std = result.min = result.max = kNaN;
+    return result;
+  }
+  result.min = *std::min_element(result.ratios.begin(), result.ratios.end());
+  result.max = *std::max_element(result.ratios.begin(), result.ratios.end());
+  if (result.ratios.size() < 2 || !(result.min > 0.0)) {
+    result.log_std = kNaN;
+    return result;
+  }
+  double mean = 0.0;
+  for (double r : result.ratios) mean += std::log(r);
+  mean /= static_cast<double>(result.ratios.size());
+  double sq = 0.0;
+  for (double r : result.ratios) sq += (std::log(r) - mean) * (std::log(r) - mean);
+  result.log_std = std::sqrt(sq / static_cast<double>(result.ratios.size()));
+  return result;
+}
+
 }  // namespace dfo

@@ -152,6 +152,26 @@ struct SnippetAteResult {
 SnippetAteResult ComputeSnippetAte(const Trajectory& ground_truth, const Trajectory& estimate,
                                    const SnippetAteOptions& options = {});
 
+// Scale drift of a monocular estimate: on consecutive stretches of `segment_length_m` metres of
+// ground-truth path (the last, shorter one left out), the estimate's path length over the ground
+// truth's, both measured along chords between the poses where the ground truth has covered each
+// fifth of a stretch (frame-to-frame jitter would otherwise lengthen the estimate's path). The estimate is used as given (already Sim3-aligned: one global scale), so ratios
+// away from 1 are the scale wandering along the run; log_std is the population standard
+// deviation of their logarithms (0 = no drift), NaN with fewer than 2 stretches, as min and max
+// with none.
+struct ScaleDriftResult {
+  double segment_length_m = 0.0;
+  std::vector<double> ratios;       // one per stretch
+  std::vector<size_t> first_index;  // the pose each stretch starts at
+  double log_std = 0.0;
+  double min = 0.0;
+  double max = 0.0;
+};
+
+// Throws InputError when the trajectories differ in size or segment_length_m is not > 0.
+ScaleDriftResult ComputeScaleDrift(const Trajectory& ground_truth, const Trajectory& estimate,
+                                   double segment_length_m = 50.0);
+
 }  // namespace dfo
 
 #endif  // DFO_CORE_METRICS_H_

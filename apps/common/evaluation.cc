@@ -41,6 +41,7 @@ TrajectoryEvaluation EvaluateTrajectory(const Trajectory& ground_truth, const Tr
   e.rpe = ComputeRpe(ground_truth, aligned, options.rpe);
   e.kitti = ComputeKittiOdometryErrors(ground_truth, aligned);
   e.snippet = ComputeSnippetAte(ground_truth, aligned);
+  e.scale_drift = ComputeScaleDrift(ground_truth, aligned);
   e.gt_path_length_m = ground_truth.PathLength();
   return e;
 }
@@ -72,6 +73,13 @@ io::JsonValue EvaluationToJson(const TrajectoryEvaluation& e) {
   out.Set("snippet_num", static_cast<int64_t>(e.snippet.errors.size()));
   out.Set("snippet_ate_mean", e.snippet.mean);
   out.Set("snippet_ate_std", e.snippet.std);
+  out.Set("scale_drift_segment_m", e.scale_drift.segment_length_m);
+  out.Set("scale_drift_log_std", e.scale_drift.log_std);
+  out.Set("scale_drift_min", e.scale_drift.min);
+  out.Set("scale_drift_max", e.scale_drift.max);
+  io::JsonValue ratios = io::JsonValue::Array();
+  for (double r : e.scale_drift.ratios) ratios.Push(io::JsonValue(r));
+  out.Set("scale_drift_ratios", std::move(ratios));
   return out;
 }
 

@@ -44,6 +44,7 @@ struct TrajectoryEvaluation {
   RpeResult rpe;
   KittiOdometryResult kitti;
   SnippetAteResult snippet;
+  ScaleDriftResult scale_drift;   // 50 m stretches
   double gt_path_length_m = 0.0;  // length of the ground-truth path (world units)
 };
 

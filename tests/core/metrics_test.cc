@@ -301,3 +301,73 @@ TEST(SnippetAte, StrideAndLengthOptions) {
 
 }  // namespace
 }  // namespace dfo
+
+namespace dfo {
+namespace {
+
+// An estimate that drives the same line with its step length times `factor` from frame `from`.
+Trajectory StepScaledFrom(const Trajectory& gt, size_t from, double factor) {
+  Trajectory est;
+  Eigen::Vector3d position = gt[0].world_from_cam.translation();
+  for (size_t i = 0; i < gt.size(); ++i) {
+    if (i > 0) {
+      const Eigen::Vector3d step =
+          gt[i].world_from_cam.translation() - gt[i - 1].world_from_cam.translation();
+      position += (i > from ? factor : 1.0) * step;
+    }
+    est.Add(gt[i].timestamp_ns, SE3d(gt[i].world_from_cam.so3(), position));
+  }
+  return est;
+}
+
+TEST(ScaleDrift, RatiosFollowTheStepLengthAlongTheRun) {
+  const Trajectory gt = StraightLine(1001, 0.2);  // 200 m, 4 stretches of 50 m
+  ScaleDriftResult same = ComputeScaleDrift(gt, gt);
+  ASSERT_EQ(same.ratios.size(), 4u);
+  for (double r : same.ratios) EXPECT_NEAR(r, 1.0, 1e-9);
+  EXPECT_NEAR(same.log_std, 0.0, 1e-9);
+  EXPECT_EQ(same.first_index[0], 0u);
+  EXPECT_EQ(same.first_index[1], 250u);
+
+  // The second half 1.2 times too long: two stretches at 1, two at 1.2.
+  const ScaleDriftResult half = ComputeScaleDrift(gt, StepScaledFrom(gt, 500, 1.2));
+  ASSERT_EQ(half.ratios.size(), 4u);
+  EXPECT_NEAR(half.ratios[0], 1.0, 1e-9);
+  EXPECT_NEAR(half.ratios[1], 1.0, 1e-9);
+  EXPECT_NEAR(half.ratios[2], 1.2, 1e-9);
+  EXPECT_NEAR(half.ratios[3], 1.2, 1e-9);
+  EXPECT_NEAR(half.log_std, 0.5 * std::log(1.2), 1e-9);
+  EXPECT_NEAR(half.min, 1.0, 1e-9);
+  EXPECT_NEAR(half.max, 1.2, 1e-9);
+}
+
+TEST(ScaleDrift, FrameToFrameJitterIsNotScale) {
+  // 5 cm of sideways jitter every frame (0.2 m steps) would lengthen a frame-to-frame path by
+  // about 12 %; along the chords it stays below 0.1 %.
+  const Trajectory gt = StraightLine(1001, 0.2);
+  Trajectory jittery;
+  for (size_t i = 0; i < gt.size(); ++i) {
+    const Eigen::Vector3d offset(i % 2 ? 0.05 : -0.05, 0.0, 0.0);
+    jittery.Add(gt[i].timestamp_ns,
+                SE3d(gt[i].world_from_cam.so3(), gt[i].world_from_cam.translation() + offset));
+  }
+  const ScaleDriftResult drift = ComputeScaleDrift(gt, jittery);
+  ASSERT_EQ(drift.ratios.size(), 4u);
+  for (double r : drift.ratios) EXPECT_NEAR(r, 1.0, 1e-3);
+}
+
+TEST(ScaleDrift, ShortRunsGiveNaNAndBadInputThrows) {
+  const Trajectory gt = StraightLine(200, 0.2);  // 40 m: no full stretch
+  const ScaleDriftResult none = ComputeScaleDrift(gt, gt);
+  EXPECT_TRUE(none.ratios.empty());
+  EXPECT_TRUE(std::isnan(none.log_std));
+  EXPECT_TRUE(std::isnan(none.min));
+  const ScaleDriftResult one = ComputeScaleDrift(gt, gt, 30.0);
+  EXPECT_EQ(one.ratios.size(), 1u);
+  EXPECT_TRUE(std::isnan(one.log_std));
+  EXPECT_THROW(ComputeScaleDrift(gt, gt, 0.0), InputError);
+  EXPECT_THROW(ComputeScaleDrift(gt, StraightLine(199, 0.2)), InputError);
+}
+
+}  // namespace
+}  // namespace dfo
