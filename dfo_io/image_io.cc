@@ -6,7 +6,6 @@
 #include <cstdint>
 #include <cstdlib>
 #include <cstring>
-#include <filesystem>
 #include <opencv2/core.hpp>
 #include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
@@ -202,10 +201,6 @@ std::string CheckHeader(const std::string& bytes, ImageHeader* h) {
 }
 
 cv::Mat Load(const std::string& path, int flags) {
-  std::error_code ec;
-  if (!std::filesystem::exists(path, ec)) {
-    throw InputError("image file not found: " + path);
-  }
   const std::string bytes = ReadWholeFile(path, "image file", kMaxImageFileBytes);
   if (bytes.empty()) throw InputError("cannot decode image " + path + ": the file is empty");
   // The header is checked before decoding: a truncated or corrupt file is named (libpng and
@@ -318,8 +313,6 @@ void WriteDepthPng(const std::string& path, const ImageF& depth_m, double scale)
 }
 
 void ReadImageSize(const std::string& path, int* width, int* height) {
-  std::error_code ec;
-  if (!std::filesystem::exists(path, ec)) throw InputError("image file not found: " + path);
   const std::string bytes = ReadWholeFile(path, "image file", kMaxImageFileBytes);
   ImageHeader header;
   if (CheckHeader(bytes, &header).empty() && !header.format.empty() && header.width > 0 &&
