@@ -200,24 +200,31 @@ std::string CheckHeader(const std::string& bytes, ImageHeader* h) {
   return "";  // not recognised: OpenCV decides
 }
 
-cv::Mat Load(const std::string& path, int flags) {
-  const std::string bytes = ReadWholeFile(path, "image file", kMaxImageFileBytes);
+// The bytes of image file `path` once its header passed (`header` says what it declares; its
+// format is empty when not recognised, and only decoding can tell the size).
+std::string ReadCheckedImageFile(const std::string& path, ImageHeader* header) {
+  std::string bytes = ReadWholeFile(path, "image file", kMaxImageFileBytes);
   if (bytes.empty()) throw InputError("cannot decode image " + path + ": the file is empty");
   // The header is checked before decoding: a truncated or corrupt file is named (libpng and
   // libjpeg would print their own lines, or fill a truncated JPEG with grey), and the size is
   // capped before the decoder allocates it.
-  ImageHeader header;
-  const std::string problem = CheckHeader(bytes, &header);
+  const std::string problem = CheckHeader(bytes, header);
   if (!problem.empty()) throw InputError("cannot decode image " + path + ": " + problem);
-  if (!header.format.empty() &&
-      (header.width <= 0 || header.height <= 0 || header.width > kMaxImageSide ||
-       header.height > kMaxImageSide || header.width * header.height > kMaxImagePixels)) {
-    throw InputError("image " + path + ": its " + header.format + " header declares " +
-                     std::to_string(header.width) + " x " + std::to_string(header.height) +
+  if (!header->format.empty() &&
+      (header->width <= 0 || header->height <= 0 || header->width > kMaxImageSide ||
+       header->height > kMaxImageSide || header->width * header->height > kMaxImagePixels)) {
+    throw InputError("image " + path + ": its " + header->format + " header declares " +
+                     std::to_string(header->width) + " x " + std::to_string(header->height) +
                      " pixels; images must be 1-" + std::to_string(kMaxImageSide) +
                      " pixels a side and at most " + std::to_string(kMaxImagePixels / 1000000) +
                      " megapixels");
   }
+  return bytes;
+}
+
+cv::Mat Load(const std::string& path, int flags) {
+  ImageHeader header;
+  const std::string bytes = ReadCheckedImageFile(path, &header);
   cv::Mat m;
   try {
     const cv::Mat raw(1, static_cast<int>(bytes.size()), CV_8UC1,
@@ -313,15 +320,14 @@ void WriteDepthPng(const std::string& path, const ImageF& depth_m, double scale)
 }
 
 void ReadImageSize(const std::string& path, int* width, int* height) {
-  const std::string bytes = ReadWholeFile(path, "image file", kMaxImageFileBytes);
   ImageHeader header;
-  if (CheckHeader(bytes, &header).empty() && !header.format.empty() && header.width > 0 &&
-      header.height > 0 && header.width <= kMaxImageSide && header.height <= kMaxImageSide) {
+  const std::string bytes = ReadCheckedImageFile(path, &header);
+  if (!header.format.empty()) {
     *width = static_cast<int>(header.width);
     *height = static_cast<int>(header.height);
     return;
   }
-  const cv::Mat m = Load(path, cv::IMREAD_UNCHANGED);  // names what is wrong, or decodes it
+  const cv::Mat m = Load(path, cv::IMREAD_UNCHANGED);  // a format only OpenCV knows
   *width = m.cols;
   *height = m.rows;
 }
