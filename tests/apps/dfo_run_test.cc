@@ -315,16 +315,7 @@ TEST(DfoRun, StartsOpenMpWithPassiveWaitUnlessTheUserChoseAnother) {
 }
 
 // A longer sequence (150 frames, several seconds of work) for runs that are stopped half-way.
-std::string MakeLongSequence() {
-  static std::string base;
-  if (base.empty()) {
-    base = test::MakeTempDir("dfo_run_long");
-    const CommandResult r =
-        RunCommand(DFO_SYNTH_EXE, "--output " + base + " --frames 150 --seed 1");
-    if (r.status != 0) throw std::runtime_error("dfo_synth failed: " + r.err);
-  }
-  return base;
-}
+std::string MakeLongSequence() { return test::SyntheticSequence(DFO_SYNTH_EXE, 150); }
 
 // Starts dfo_run on the long sequence in the background, waits until frames.csv holds `frames`
 // frame lines, sends `signal`, and returns the exit status.

@@ -46,16 +46,7 @@ std::string Slurp(const std::string& path) {
 }
 
 // A kFrames-frame synthetic sequence, rendered once per test process.
-const std::string& Sequence() {
-  static std::string root;
-  if (root.empty()) {
-    root = test::MakeTempDir("lcm_sequence");
-    const CommandResult r = RunCommand(
-        DFO_SYNTH_EXE, "--output " + root + " --frames " + std::to_string(kFrames) + " --seed 1");
-    if (r.status != 0) throw std::runtime_error("dfo_synth failed: " + r.err);
-  }
-  return root;
-}
+std::string Sequence() { return test::SyntheticSequence(DFO_SYNTH_EXE, kFrames); }
 
 // dfo_run's arguments for the sequence, mode both, no pictures.
 std::string RunArgs(const std::string& out) {

@@ -56,24 +56,24 @@ CommandResult RunCommand(const std::string& exe, const std::string& args) {
   return result;
 }
 
-std::string CopyOfSyntheticSequence(const std::string& synth_exe, int frames,
-                                    const std::string& tag) {
+std::string SyntheticSequence(const std::string& synth_exe, int frames) {
   static std::mutex mutex;
   static std::map<int, std::string> rendered;
-  std::string base;
-  {
-    std::lock_guard<std::mutex> lock(mutex);
-    std::string& dir = rendered[frames];
-    if (dir.empty()) {
-      const std::string target = MakeTempDir("synthetic_" + std::to_string(frames));
-      const CommandResult r = RunCommand(
-          synth_exe, "--output " + target + " --frames " + std::to_string(frames) +
-                         " --seed 1 --threads 2");
-      if (r.status != 0) throw std::runtime_error("dfo_synth failed: " + r.err);
-      dir = target;
-    }
-    base = dir;
+  std::lock_guard<std::mutex> lock(mutex);
+  std::string& dir = rendered[frames];
+  if (dir.empty()) {
+    const std::string target = MakeTempDir("synthetic_" + std::to_string(frames));
+    const CommandResult r = RunCommand(
+        synth_exe, "--output " + target + " --frames " + std::to_string(frames) + " --seed 1");
+    if (r.status != 0) throw std::runtime_error("dfo_synth failed: " + r.err);
+    dir = target;
   }
+  return dir;
+}
+
+std::string CopyOfSyntheticSequence(const std::string& synth_exe, int frames,
+                                    const std::string& tag) {
+  const std::string base = SyntheticSequence(synth_exe, frames);
   const std::string copy = MakeTempDir(tag);
   std::filesystem::copy(base, copy,
                         std::filesystem::copy_options::recursive |

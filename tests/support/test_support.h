@@ -29,9 +29,13 @@ struct CommandResult {
 // stderr separately (stderr through a temporary file).
 CommandResult RunCommand(const std::string& exe, const std::string& args);
 
-// A fresh copy, in its own temporary folder (MakeTempDir(tag)), of a `frames`-frame synthetic
-// KITTI-layout sequence (depth maps, poses) that `synth_exe` (dfo_synth, seed 1) renders once per
-// process and frame count. Throws std::runtime_error with dfo_synth's stderr when it fails.
+// The folder of a `frames`-frame synthetic KITTI-layout sequence (depth maps, poses) that
+// `synth_exe` (dfo_synth, seed 1) renders once per process and frame count; shared, so read
+// only. Throws std::runtime_error with dfo_synth's stderr when it fails.
+std::string SyntheticSequence(const std::string& synth_exe, int frames);
+
+// A fresh copy of SyntheticSequence(synth_exe, frames) in its own temporary folder
+// (MakeTempDir(tag)), for tests that change it.
 std::string CopyOfSyntheticSequence(const std::string& synth_exe, int frames,
                                     const std::string& tag);
 
