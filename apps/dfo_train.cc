@@ -18,6 +18,7 @@
 
 #include "apps/common/cli.h"
 #include "dfo_core/error.h"
+#include "dfo_frontend/learned/internal/device.h"
 #include "dfo_frontend/learned/internal/model_file.h"
 #include "dfo_frontend/learned/internal/training.h"
 #include "dfo_io/config.h"
@@ -182,6 +183,7 @@ learned::TrainingOptions OptionsFromConfig(const io::Config& c) {
   o.temperature_end = c.GetDouble("train.temperature_end");
   o.seed = static_cast<uint64_t>(c.GetInt64("train.seed"));
   o.threads = c.GetInt("train.threads");
+  o.device = c.GetString("train.device");
   o.channels_last = c.GetBool("train.channels_last");
   o.checkpoint_every = c.GetInt("train.checkpoint_every");
   o.Check();
@@ -370,6 +372,9 @@ int Run(const Args& args) {
   }
   if (args.output_dir.empty()) throw UsageError("--output DIR is required");
   const learned::TrainingOptions base_options = OptionsFromConfig(config);
+  // A device this LibTorch cannot use stops the run here, before any data is read or file written
+  // (the trainer checks it again).
+  learned::ResolveDevice("train.device", base_options.device);
   const std::string dir = args.output_dir;
   const std::string checkpoint = dir + "/checkpoint.pt";
   const std::string model_path = args.model_path.empty() ? dir + "/model.dfo" : args.model_path;
@@ -474,7 +479,7 @@ int Run(const Args& args) {
             << learned::NumParameters(*trainer.networks()->feature)
             << " feature parameters, training " << options.network.input_width << "x"
             << options.network.input_height << ", batch " << options.batch_size << ", "
-            << options.threads << " thread(s)";
+            << options.threads << " thread(s), device " << options.device;
   if (trainer.iteration() > 0) std::cout << ", resuming at iteration " << trainer.iteration();
   std::cout << "\n";
 

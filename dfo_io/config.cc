@@ -324,6 +324,11 @@ ConfigKey& ConfigKey::OneOf(std::vector<std::string> values) {
   allowed = std::move(values);
   return *this;
 }
+ConfigKey& ConfigKey::Matches(std::function<bool(const std::string&)> accepts, std::string rule) {
+  matches = std::move(accepts);
+  matches_rule = std::move(rule);
+  return *this;
+}
 
 std::string ConfigKey::RuleText() const {
   const bool integral = type == ConfigType::kInt || type == ConfigType::kIntList;
@@ -342,6 +347,7 @@ std::string ConfigKey::RuleText() const {
     for (size_t i = 0; i < allowed.size(); ++i) s += (i ? "|" : "") + allowed[i];
     parts.push_back(s);
   }
+  if (matches) parts.push_back(matches_rule);
   std::string out;
   for (size_t i = 0; i < parts.size(); ++i) out += (i ? ", " : "") + parts[i];
   return out;
@@ -354,7 +360,8 @@ std::string ConfigKey::Violation(const ConfigValue& value) const {
     return true;
   };
   const auto check_string = [&](const std::string& s) {
-    return allowed.empty() || std::find(allowed.begin(), allowed.end(), s) != allowed.end();
+    return (allowed.empty() || std::find(allowed.begin(), allowed.end(), s) != allowed.end()) &&
+           (!matches || matches(s));
   };
   bool ok = true;
   if (const auto* i = std::get_if<int64_t>(&value)) ok = check_number(static_cast<double>(*i));

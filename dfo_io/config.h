@@ -23,6 +23,7 @@
 
 #include <cstdint>
 #include <deque>
+#include <functional>
 #include <map>
 #include <memory>
 #include <optional>
@@ -45,8 +46,8 @@ using ConfigValue = std::variant<bool, int64_t, double, std::string, std::vector
 // The declaration of one key: type, default, rule and documentation. Built through
 // ConfigSchema::Add*(); the range setters chain:
 //   schema.AddDouble("keyframe.translation_ratio", 0.1, "...").GreaterThan(0).Max(1);
-// Numeric rules apply to ints, doubles and to every element of numeric lists; OneOf applies to
-// strings and to every element of string lists.
+// Numeric rules apply to ints, doubles and to every element of numeric lists; OneOf and Matches
+// apply to strings and to every element of string lists.
 struct ConfigKey {
   std::string path;     // "section.key"
   std::string section;  // part before the first '.'
@@ -63,12 +64,18 @@ struct ConfigKey {
   std::optional<Bound> lower;        // value >= lower (or > when exclusive)
   std::optional<Bound> upper;        // value <= upper (or < when exclusive)
   std::vector<std::string> allowed;  // non-empty: the string must be one of these
+  // Set: the string must satisfy it (Matches); `matches_rule` says the rule in words.
+  std::function<bool(const std::string&)> matches;
+  std::string matches_rule;
 
   ConfigKey& Min(double v);          // value >= v
   ConfigKey& GreaterThan(double v);  // value > v
   ConfigKey& Max(double v);          // value <= v
   ConfigKey& LessThan(double v);     // value < v
   ConfigKey& OneOf(std::vector<std::string> values);
+  // A string rule that a list cannot say, e.g. "one of cpu, cuda, cuda:N": `accepts` decides,
+  // `rule` is its text in RuleText and messages.
+  ConfigKey& Matches(std::function<bool(const std::string&)> accepts, std::string rule);
 
   // The rule in words, e.g. "> 0, <= 1" or "one of kitti|tum|folder"; "" when unrestricted.
   std::string RuleText() const;

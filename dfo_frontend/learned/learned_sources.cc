@@ -8,6 +8,7 @@
 
 #include "dfo_core/error.h"
 #include "dfo_frontend/internal/check_util.h"
+#include "dfo_frontend/learned/internal/device.h"
 #include "dfo_frontend/learned/internal/model_file.h"
 #include "dfo_frontend/learned/internal/networks.h"
 
@@ -63,34 +64,8 @@ void LearnedModelOptions::Check() const {
     CheckOption(std::isfinite(rho[i]) && rho[i] > 0.0 && rho[i] <= 1.0,
                 "learned.rho[" + std::to_string(i) + "]", rho[i], "in (0, 1]");
   }
-  bool device_ok = device == "cpu" || device == "cuda";
-  if (!device_ok && device.rfind("cuda:", 0) == 0 && device.size() > 5 && device.size() <= 8) {
-    device_ok = device.find_first_not_of("0123456789", 5) == std::string::npos;
-  }
-  CheckOption(device_ok, "learned.device", "\"" + device + "\"", "one of cpu, cuda, cuda:N");
+  learned::CheckDeviceName("learned.device", device);
 }
-
-namespace {
-
-// The torch device of learned.device; ConfigError when it names a CUDA device this LibTorch
-// cannot use (no CUDA build, no device, or an index beyond the devices present).
-torch::Device DeviceOf(const std::string& name) {
-  const torch::Device device(name);
-  if (!device.is_cuda()) return device;
-  if (!torch::cuda::is_available()) {
-    throw ConfigError("learned.device = \"" + name +
-                      "\": this LibTorch has no usable CUDA device (Debian's libtorch is built for "
-                      "the CPU only; build dfo against a CUDA LibTorch, see README, or use cpu)");
-  }
-  const int64_t count = static_cast<int64_t>(torch::cuda::device_count());
-  if (device.has_index() && device.index() >= count) {
-    throw ConfigError("learned.device = \"" + name + "\": only " + std::to_string(count) +
-                      " CUDA device(s) present");
-  }
-  return device;
-}
-
-}  // namespace
 
 struct LearnedModel::Impl {
   LearnedModelOptions options;
@@ -123,7 +98,7 @@ void LearnedModel::Impl::Load() {
   options.Check();
   // LibTorch's intra-op pool is process-wide; the default here is 1 thread (DESIGN.md).
   at::set_num_threads(options.num_threads);
-  device = DeviceOf(options.device);
+  device = learned::ResolveDevice("learned.device", options.device);
   model = learned::LoadModel(options.model_path);
   const std::string prefix = "model file " + options.model_path + ": ";
   learned::NetworkOptions& o = model.options;

@@ -216,6 +216,40 @@ TEST_F(DfoTrainAppTest, CommandLineMistakesAreNamed) {
   EXPECT_NE(r.out.find("no checkpoint"), std::string::npos) << r.out;
 }
 
+// train.device: a name other than cpu, cuda, cuda:N is a configuration error naming the key, and
+// with Debian's CPU-only LibTorch `cuda` stops dfo_train at start-up with one line saying why,
+// before any data is read or file written.
+TEST_F(DfoTrainAppTest, DeviceErrorsStopAtStartUp) {
+  const std::string out = test::MakeTempDir("dfo_train_device");
+  for (const char* bad : {"gpu", "cuda:x"}) {
+    const CommandResult r =
+        Shell(Train("--set train.device=" + std::string(bad) + " --output " + out + "/bad"));
+    EXPECT_EQ(r.status, 1) << r.out;
+    EXPECT_NE(
+        r.out.find("train.device = \"" + std::string(bad) + "\" violates one of cpu, cuda, cuda:N"),
+        std::string::npos)
+        << r.out;
+  }
+  EXPECT_FALSE(fs::exists(out + "/bad"));
+  // The shipped default configuration; its data folders are replaced by one that does not exist,
+  // so that only the device check can stop the run before the data (or, with CUDA, the data).
+  const CommandResult r =
+      Shell(std::string(DFO_TRAIN_EXE) + " --config " + test::SourceDir() +
+            "/configs/train_default.yaml --set 'data.sequences=[" + out +
+            "/no_such_sequence]' --output " + out + "/run --set train.device=cuda");
+  EXPECT_EQ(r.status, 1) << r.out;
+  EXPECT_FALSE(fs::exists(out + "/run"));
+  if (r.out.find("no_such_sequence") != std::string::npos) {
+    // A CUDA LibTorch with a device: the device was accepted and the missing data stopped it.
+    EXPECT_EQ(r.out.find("train.device"), std::string::npos) << r.out;
+    return;
+  }
+  EXPECT_EQ(r.out,
+            "dfo_train: error: train.device = \"cuda\": this LibTorch has no usable CUDA device "
+            "(Debian's libtorch is built for the CPU only; build dfo against a CUDA LibTorch, see "
+            "README, or use cpu)\n");
+}
+
 }  // namespace
 }  // namespace dfo
 

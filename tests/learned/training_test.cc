@@ -13,6 +13,7 @@
 #include "dfo_core/frame.h"
 #include "dfo_core/synthetic/synthetic_sequence.h"
 #include "dfo_frontend/feature_source.h"
+#include "dfo_frontend/learned/internal/model_file.h"
 #include "tests/support/test_support.h"
 
 namespace dfo::learned {
@@ -308,6 +309,67 @@ TEST_F(TrainingTest, OptionErrorsNameTheField) {
   TrainingSequence tiny = *data_;
   tiny.images.resize(2);
   EXPECT_THROW(Trainer(TinyOptions(), {tiny}), InputError);
+}
+
+TEST_F(TrainingTest, DeviceIsCheckedAndCudaWithoutCudaIsAClearStartUpError) {
+  TrainingOptions o = TinyOptions();
+  for (const char* bad : {"gpu", "cuda:", "cuda:x", "CPU"}) {
+    o.device = bad;
+    try {
+      Trainer t(o, {*data_});
+      ADD_FAILURE() << "accepted train.device = " << bad;
+    } catch (const ConfigError& e) {
+      EXPECT_NE(std::string(e.what()).find("train.device = \"" + std::string(bad) +
+                                           "\" violates one of cpu, cuda, cuda:N"),
+                std::string::npos)
+          << e.what();
+    }
+  }
+  o.device = "cpu";
+  EXPECT_TRUE(Trainer(o, {*data_}).device().is_cpu());
+  o.device = "cuda";
+  if (!torch::cuda::is_available()) {
+    // Debian's CPU-only LibTorch: a ConfigError naming the key, the value and why, before the
+    // data is looked at (no data here would otherwise be an InputError).
+    try {
+      Trainer t(o, {});
+      ADD_FAILURE() << "train.device = cuda accepted without CUDA";
+    } catch (const ConfigError& e) {
+      EXPECT_NE(std::string(e.what()).find("train.device = \"cuda\": this LibTorch has no usable "
+                                           "CUDA device"),
+                std::string::npos)
+          << e.what();
+    }
+    return;
+  }
+  // A CUDA build with a device (no figure required): the first iterations (AE and joint stages)
+  // train there and give the CPU's losses up to rounding, and the checkpoint and model file it
+  // writes load on the CPU.
+  const std::string dir = test::MakeTempDir("train_cuda");
+  TrainingOptions cpu_options = TinyOptions();
+  cpu_options.iterations = 5;  // 3 AE + 2 joint
+  o = cpu_options;
+  o.device = "cuda";
+  Trainer gpu(o, {*data_});
+  EXPECT_TRUE(gpu.device().is_cuda());
+  gpu.Run(nullptr, dir + "/checkpoint.pt", nullptr);
+  Trainer cpu(cpu_options, {*data_});
+  cpu.Run(nullptr, "", nullptr);
+  ASSERT_EQ(gpu.history().size(), cpu.history().size());
+  for (size_t i = 0; i < cpu.history().size(); ++i) {
+    EXPECT_NEAR(gpu.history()[i].total, cpu.history()[i].total,
+                0.05 * std::abs(cpu.history()[i].total) + 1e-6)
+        << "iteration " << i + 1;
+  }
+  Trainer resumed(cpu_options, {*data_});
+  resumed.LoadCheckpoint(dir + "/checkpoint.pt");
+  EXPECT_EQ(resumed.iteration(), 5);
+  for (const torch::Tensor& p : resumed.networks()->parameters()) EXPECT_TRUE(p.device().is_cpu());
+  SaveModel(dir + "/model.dfo", *gpu.networks());
+  const LoadedModel model = LoadModel(dir + "/model.dfo");
+  EXPECT_EQ(model.kind, LoadedModel::Kind::kDfo);
+  const std::vector<torch::Tensor> depth = gpu.PredictDepth(gpu.MakeBatch(0).target);
+  EXPECT_TRUE(depth[0].device().is_cpu());
 }
 
 // Warp sanity with ground truth: on a synthetic snippet, the training's view-synthesis loss with

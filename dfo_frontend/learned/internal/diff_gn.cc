@@ -50,8 +50,8 @@ PoseTensor PoseTensor::FromSE3(const SE3d& pose) {
 }
 
 SE3d PoseTensor::ToSE3() const {
-  const torch::Tensor r = rotation.detach().to(torch::kFloat64).contiguous();
-  const torch::Tensor t = translation.detach().to(torch::kFloat64).contiguous();
+  const torch::Tensor r = rotation.detach().to(torch::kCPU, torch::kFloat64).contiguous();
+  const torch::Tensor t = translation.detach().to(torch::kCPU, torch::kFloat64).contiguous();
   Eigen::Matrix3d m;
   Eigen::Vector3d v;
   auto ra = r.accessor<double, 2>();
@@ -100,14 +100,15 @@ PoseTensor ExpSE3(const torch::Tensor& xi) {
 FeaturePyramid ToFeaturePyramid(const AlignmentView& view, double mask_threshold) {
   FeaturePyramid out;
   for (size_t l = 0; l < view.features.size(); ++l) {
-    const torch::Tensor f = view.features[l].detach().to(torch::kFloat32).contiguous();
+    const torch::Tensor f = view.features[l].detach().to(torch::kCPU, torch::kFloat32).contiguous();
     DFO_CHECK(f.dim() == 3) << "level " << l << " features " << f.sizes();
     FeatureLevel level(static_cast<int>(f.size(2)), static_cast<int>(f.size(1)),
                        static_cast<int>(f.size(0)), view.cameras.at(l));
     std::copy(f.data_ptr<float>(), f.data_ptr<float>() + f.numel(), level.data.begin());
     if (l < view.masks.size() && view.masks[l].defined()) {
-      const torch::Tensor m =
-          (view.masks[l].detach().reshape({-1}) > mask_threshold).to(torch::kUInt8).contiguous();
+      const torch::Tensor m = (view.masks[l].detach().reshape({-1}) > mask_threshold)
+                                  .to(torch::kCPU, torch::kUInt8)
+                                  .contiguous();
       DFO_CHECK(m.numel() == static_cast<int64_t>(level.width) * level.height) << "mask " << l;
       level.mask.assign(m.data_ptr<uint8_t>(), m.data_ptr<uint8_t>() + m.numel());
     }
@@ -119,7 +120,7 @@ FeaturePyramid ToFeaturePyramid(const AlignmentView& view, double mask_threshold
 DepthPyramid ToDepthPyramid(const AlignmentView& view) {
   DepthPyramid out;
   for (size_t l = 0; l < view.depth.size(); ++l) {
-    const torch::Tensor d = view.depth[l].detach().to(torch::kFloat32).contiguous();
+    const torch::Tensor d = view.depth[l].detach().to(torch::kCPU, torch::kFloat32).contiguous();
     const int64_t h = d.size(-2), w = d.size(-1);
     ImageF image(static_cast<int>(w), static_cast<int>(h), 1);
     const float* src = d.data_ptr<float>();
@@ -171,7 +172,8 @@ LevelData BuildLevel(const Tracker& tracker, int level, const AlignmentView& ref
       }
     }
   }
-  const auto long_opts = torch::TensorOptions().dtype(torch::kLong);
+  // Index tensors on the features' device (the reference's tensors are all on one device).
+  const auto long_opts = torch::TensorOptions().dtype(torch::kLong).device(f.device());
   const torch::Tensor x = torch::tensor(xs, long_opts), y = torch::tensor(ys, long_opts);
   const torch::Tensor flat = f.reshape({c, h * w});
   auto gather = [&](int64_t ox, int64_t oy) {
@@ -206,7 +208,7 @@ LevelData BuildLevel(const Tracker& tracker, int level, const AlignmentView& ref
                      .index_select(0, torch::tensor(centre_idx, long_opts))
                      .to(torch::kFloat64);
   } else {
-    lv.weights = torch::ones({lv.num_patches}, Double());
+    lv.weights = torch::ones({lv.num_patches}, Double().device(f.device()));
   }
   return lv;
 }
@@ -235,7 +237,7 @@ Evaluation Evaluate(const LevelData& lv, const torch::Tensor& cur, const PoseTen
     const torch::Tensor inside = ((z > 1e-6) & (u >= 0) & (v >= 0) & (u <= w - 1) & (v <= h - 1))
                                      .reshape({lv.num_patches, lv.patch_pixels})
                                      .all(1)
-                                     .to(torch::kUInt8)
+                                     .to(torch::kCPU, torch::kUInt8)
                                      .contiguous();
     ev.valid.assign(inside.data_ptr<uint8_t>(), inside.data_ptr<uint8_t>() + lv.num_patches);
   }
@@ -255,7 +257,7 @@ Evaluation Evaluate(const LevelData& lv, const torch::Tensor& cur, const PoseTen
   const torch::Tensor rp = r.reshape({lv.num_patches, -1});
   ev.energy = (rp * rp).sum(1);
   {
-    const torch::Tensor e = ev.energy.detach().contiguous();
+    const torch::Tensor e = ev.energy.detach().to(torch::kCPU).contiguous();
     ev.energies.assign(e.data_ptr<double>(), e.data_ptr<double>() + lv.num_patches);
   }
   for (int i = 0; i < lv.num_patches; ++i) {
@@ -319,7 +321,8 @@ DiffGnLevelStats AlignLevel(const LevelData& lv, const torch::Tensor& cur, const
     for (int i = 0; i < lv.num_patches; ++i) {
       if (inlier[i]) ids.push_back(i);
     }
-    const torch::Tensor idx = torch::tensor(ids, torch::TensorOptions().dtype(torch::kLong));
+    const torch::Tensor idx =
+        torch::tensor(ids, torch::TensorOptions().dtype(torch::kLong).device(lv.weights.device()));
     const torch::Tensor wts = lv.weights.index_select(0, idx);
     const torch::Tensor hess = (lv.hessians.index_select(0, idx) * wts.view({-1, 1, 1})).sum(0);
     const torch::Tensor grad = (ev.gradient.index_select(0, idx) * wts.view({-1, 1})).sum(0);
@@ -391,7 +394,10 @@ DiffGnResult DifferentiableAlign(const AlignmentView& ref, const AlignmentView& 
 
   DiffGnResult result;
   result.levels.assign(num_levels, DiffGnLevelStats());
-  PoseTensor pose{start.rotation.to(torch::kFloat64), start.translation.to(torch::kFloat64)};
+  // The start pose (often a CPU PoseTensor::FromSE3) on the reference's device.
+  const torch::Device device = ref.features[0].device();
+  PoseTensor pose{start.rotation.to(device, torch::kFloat64),
+                  start.translation.to(device, torch::kFloat64)};
   if (tracker.num_reference_points(0) < std::max(options.min_inliers_lost, kMinPatchesPerLevel)) {
     result.cur_from_ref = pose;
     return result;

@@ -290,6 +290,21 @@ ScriptOutputs CheckScriptOutputs(const c10::IValue& output, const NetworkOptions
 
 void SaveModel(const std::string& path, NetworksImpl& networks, const std::string& notes) {
   const NetworkOptions& o = networks.options();
+  // Model files hold CPU tensors whatever device the networks are on (e.g. trained on a GPU), so
+  // that they load anywhere: networks elsewhere are saved through a CPU copy.
+  bool on_cpu = true;
+  for (const torch::Tensor& t : networks.parameters()) on_cpu = on_cpu && t.device().is_cpu();
+  for (const torch::Tensor& t : networks.buffers()) on_cpu = on_cpu && t.device().is_cpu();
+  if (!on_cpu) {
+    Networks copy(o, /*seed=*/0);
+    torch::NoGradGuard no_grad;
+    const auto parameters = networks.named_parameters();
+    for (auto& p : copy->named_parameters()) p.value().copy_(parameters[p.key()]);
+    const auto buffers = networks.named_buffers();
+    for (auto& b : copy->named_buffers()) b.value().copy_(buffers[b.key()]);
+    SaveModel(path, *copy, notes);
+    return;
+  }
   torch::serialize::OutputArchive archive;
   archive.write("dfo_format", c10::IValue(std::string(kModelFormatTag)));
   archive.write("dfo_version", c10::IValue(int64_t{kModelFileVersion}));

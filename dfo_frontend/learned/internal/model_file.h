@@ -49,8 +49,8 @@ constexpr const char* kModelFormatTag = "dfo-model";
 constexpr int kModelFileVersion = 1;
 
 // Writes both networks and their options to `path` (format 1 above), overwriting it. `notes`
-// (e.g. the training command and config) is stored verbatim. Throws InputError when the file
-// cannot be written.
+// (e.g. the training command and config) is stored verbatim. The file holds CPU tensors also
+// when the networks are on a GPU. Throws InputError when the file cannot be written.
 void SaveModel(const std::string& path, NetworksImpl& networks, const std::string& notes = "");
 
 // What a model file held.

@@ -86,11 +86,16 @@ torch::Tensor GaussianSmooth3x3(const torch::Tensor& x) {
 torch::Tensor GumbelSigmoid(const torch::Tensor& logits, double temperature,
                             c10::optional<at::Generator> generator) {
   DFO_CHECK(temperature > 0.0) << "Gumbel-sigmoid temperature " << temperature << " must be > 0";
-  // u in [eps, 1 - eps] keeps the logistic noise finite.
+  // u in [eps, 1 - eps] keeps the logistic noise finite. Drawn on the generator's device (the
+  // trainer's are CPU generators: the same noise for every training device), then moved to the
+  // logits'.
   constexpr double kEps = 1e-6;
-  const torch::Tensor u =
-      torch::rand(logits.sizes(), generator, logits.options().requires_grad(false))
-          .clamp(kEps, 1.0 - kEps);
+  const torch::Device draw_device =
+      generator.has_value() && generator->defined() ? generator->device() : logits.device();
+  const torch::Tensor u = torch::rand(logits.sizes(), generator,
+                                      logits.options().device(draw_device).requires_grad(false))
+                              .clamp(kEps, 1.0 - kEps)
+                              .to(logits.device());
   const torch::Tensor noise = torch::log(u) - torch::log1p(-u);
   return torch::sigmoid((logits + noise) / temperature);
 }

@@ -51,7 +51,9 @@ torch::Tensor GaussianSmooth3x3(const torch::Tensor& x);
 
 // Gumbel-sigmoid relaxation of Bernoulli masks (Jang et al. 2017, binary case):
 // sigmoid((logits + log(u) - log(1 - u)) / temperature), u ~ U(0, 1) drawn from `generator`
-// (nullopt = torch's default generator). temperature > 0; 1 -> 0.1 over training in the paper.
+// (nullopt = torch's default generator) on the generator's device and moved to the logits' (a CPU
+// generator gives CUDA logits the CPU's noise). temperature > 0; 1 -> 0.1 over training in the
+// paper.
 torch::Tensor GumbelSigmoid(const torch::Tensor& logits, double temperature,
                             c10::optional<at::Generator> generator = c10::nullopt);
 

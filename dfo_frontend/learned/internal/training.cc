@@ -19,6 +19,7 @@
 #include "dfo_core/error.h"
 #include "dfo_core/frame.h"
 #include "dfo_frontend/feature_source.h"
+#include "dfo_frontend/learned/internal/device.h"
 
 namespace dfo::learned {
 
@@ -102,6 +103,7 @@ void TrainingOptions::Check() const {
   Require(temperature_start > 0.0, "train.temperature_start", temperature_start, "> 0");
   Require(temperature_end > 0.0, "train.temperature_end", temperature_end, "> 0");
   Require(threads >= 1, "train.threads", threads, ">= 1");
+  CheckDeviceName("train.device", device);
   Require(initial_depth_m == 0.0 || (initial_depth_m > 0.1 && initial_depth_m < 100.0),
           "train.initial_depth_m", initial_depth_m, "0 or in (0.1, 100)");
   Require(gn_handmade_iterations >= 0, "gn.handmade_iterations", gn_handmade_iterations, ">= 0");
@@ -121,7 +123,7 @@ torch::Tensor ViewSynthesisLoss(const Trainer::Batch& batch,
   const std::vector<torch::Tensor> targets = ImagePyramid(batch.target, levels);
   const std::vector<torch::Tensor> sources[2] = {ImagePyramid(batch.previous, levels),
                                                  ImagePyramid(batch.next, levels)};
-  torch::Tensor appearance = torch::zeros({});
+  torch::Tensor appearance = torch::zeros({}, batch.target.options());
   for (int l = 0; l < levels; ++l) {
     // The level whose images and intrinsics the view synthesis uses.
     const int il = options.full_resolution ? 0 : l;
@@ -180,8 +182,8 @@ std::vector<torch::Tensor> NormaliseDepthScale(const std::vector<torch::Tensor>&
   // (measured: median depth 0.0999 m while the mean read 10 m). (Also with ground-truth poses:
   // unnormalised, the initial 0.2 m depths put every warped pixel outside the sources and the
   // depth collapsed to the 0.1 m floor; measured.)
-  *prior = torch::zeros({});
-  if (factor) *factor = torch::ones({raw[0].size(0), 1, 1, 1});
+  *prior = torch::zeros({}, raw[0].options());
+  if (factor) *factor = torch::ones({raw[0].size(0), 1, 1, 1}, raw[0].options());
   if (options.depth_mean_m <= 0.0) return raw;
   const torch::Tensor log_mean = torch::log(raw[0]).mean();
   const double log_target = std::log(options.depth_mean_m);
@@ -240,7 +242,7 @@ std::vector<torch::Tensor> HandmadePyramid(const torch::Tensor& image, const Pin
   const torch::Tensor hwc = (image.detach() * 255.0)
                                 .round()
                                 .clamp(0, 255)
-                                .to(torch::kUInt8)
+                                .to(torch::kCPU, torch::kUInt8)
                                 .permute({1, 2, 0})
                                 .contiguous();
   Frame frame;
@@ -253,7 +255,8 @@ std::vector<torch::Tensor> HandmadePyramid(const torch::Tensor& image, const Pin
   for (const FeatureLevel& level : pyramid.levels) {
     out.push_back(torch::from_blob(const_cast<float*>(level.data.data()),
                                    {level.channels, level.height, level.width}, torch::kFloat32)
-                      .clone());
+                      .clone()
+                      .to(image.device()));
   }
   return out;
 }
@@ -269,6 +272,8 @@ torch::Tensor ZScore(const torch::Tensor& features) {
 Trainer::Trainer(const TrainingOptions& options, std::vector<TrainingSequence> data)
     : options_(options), data_(std::move(data)) {
   options_.Check();
+  // Before the data is touched: a device this LibTorch cannot use is a start-up error.
+  device_ = ResolveDevice("train.device", options_.device);
   const int w = options_.network.input_width, h = options_.network.input_height;
   for (size_t s = 0; s < data_.size(); ++s) {
     TrainingSequence& seq = data_[s];
@@ -336,6 +341,8 @@ Trainer::Trainer(const TrainingOptions& options, std::vector<TrainingSequence> d
   networks_ = Networks(options_.network, options_.seed);
   if (options_.initial_depth_m > 0.0) networks_->depth->SetInitialDepth(options_.initial_depth_m);
   if (options_.channels_last) ToChannelsLast(*networks_);
+  // Built (and initialised) on the CPU, then moved: the same initial weights on every device.
+  if (!device_.is_cpu()) networks_->to(device_);
   optimizer_ = std::make_unique<torch::optim::Adam>(
       networks_->parameters(), torch::optim::AdamOptions(options_.learning_rate)
                                    .betas({options_.adam_beta1, options_.adam_beta2}));
@@ -445,16 +452,19 @@ Trainer::Batch Trainer::MakeBatch(int iteration) const {
                        static_cast<float>(camera.cx), static_cast<float>(camera.cy)});
     batch.cameras.push_back(camera);
   }
+  // Drawn and augmented on the CPU (the same batch on every device), moved to the device once.
   const auto format =
       options_.channels_last ? torch::MemoryFormat::ChannelsLast : torch::MemoryFormat::Contiguous;
-  batch.previous = torch::stack(frames[0]).contiguous(format);
-  batch.target = torch::stack(frames[1]).contiguous(format);
-  batch.next = torch::stack(frames[2]).contiguous(format);
-  batch.intrinsics = torch::tensor(intrinsics).view({options_.batch_size, 4});
+  batch.previous = torch::stack(frames[0]).to(device_).contiguous(format);
+  batch.target = torch::stack(frames[1]).to(device_).contiguous(format);
+  batch.next = torch::stack(frames[2]).to(device_).contiguous(format);
+  batch.intrinsics = torch::tensor(intrinsics).view({options_.batch_size, 4}).to(device_);
   if (batch.has_ground_truth) {
     for (int s = 0; s < 2; ++s) {
-      batch.gt_rotation[s] = torch::tensor(gt_rotation[s]).view({options_.batch_size, 3, 3});
-      batch.gt_translation[s] = torch::tensor(gt_translation[s]).view({options_.batch_size, 3});
+      batch.gt_rotation[s] =
+          torch::tensor(gt_rotation[s]).view({options_.batch_size, 3, 3}).to(device_);
+      batch.gt_translation[s] =
+          torch::tensor(gt_translation[s]).view({options_.batch_size, 3}).to(device_);
     }
   }
   return batch;
@@ -469,8 +479,8 @@ StepRecord Trainer::AeStep(const Batch& batch) {
   const std::vector<torch::Tensor> pyramid = ImagePyramid(batch.target, levels);
   at::Generator gen =
       at::make_generator<at::CPUGeneratorImpl>(StepSeed(options_.seed, iteration_, 1));
-  torch::Tensor reconstruction = torch::zeros({});
-  torch::Tensor sparsity = torch::zeros({});
+  torch::Tensor reconstruction = torch::zeros({}, batch.target.options());
+  torch::Tensor sparsity = torch::zeros({}, batch.target.options());
   rec.temperature = TemperatureAt(iteration_);
   for (int l = 0; l < levels; ++l) {
     reconstruction = reconstruction + ReconstructionLoss(recon[l], pyramid[l]) / levels;
@@ -500,8 +510,9 @@ StepRecord Trainer::JointStep(const Batch& batch, int iteration) {
 
   using Clock = std::chrono::steady_clock;
   const auto t0 = Clock::now();
+  const torch::TensorOptions float_options = batch.target.options();  // float, on the device
   const DepthNetOutput raw_depth = networks_->depth->forward(batch.target);
-  torch::Tensor scale_prior = torch::zeros({});
+  torch::Tensor scale_prior = torch::zeros({}, float_options);
   torch::Tensor gauge_factor;
   const std::vector<torch::Tensor> depth_levels =
       NormaliseDepthScale(raw_depth.depth, options_.loss, &scale_prior, &gauge_factor);
@@ -524,7 +535,7 @@ StepRecord Trainer::JointStep(const Batch& batch, int iteration) {
     sources[1] = networks_->feature->forward(batch.next);
   }
   std::vector<torch::Tensor> masks(levels), target_z(levels), source_z[2];
-  torch::Tensor sparsity = torch::zeros({});
+  torch::Tensor sparsity = torch::zeros({}, float_options);
   for (int l = 0; l < levels; ++l) {
     masks[l] = GumbelSigmoid(target.mask_logits[l], rec.temperature, gen);
     sparsity = sparsity + SparsityLoss(masks[l], options_.network.rho[l]);
@@ -537,7 +548,7 @@ StepRecord Trainer::JointStep(const Batch& batch, int iteration) {
   // diagnostic, the ground truth).
   torch::Tensor rotation[2], translation[2];
   // 1 where the sample's pose toward source s is usable (the alignment succeeded).
-  torch::Tensor pose_ok[2] = {torch::ones({n}), torch::ones({n})};
+  torch::Tensor pose_ok[2] = {torch::ones({n}, float_options), torch::ones({n}, float_options)};
   if (ground_truth_poses) {
     DFO_CHECK(batch.has_ground_truth);
     for (int s = 0; s < 2; ++s) {
@@ -595,8 +606,8 @@ StepRecord Trainer::JointStep(const Batch& batch, int iteration) {
         } else {
           // A failed alignment contributes no pose gradient: the identity warp does not depend
           // on the depth or the features, so the sample only adds a constant to the loss.
-          rotations[s].push_back(torch::eye(3));
-          translations[s].push_back(torch::zeros({3}));
+          rotations[s].push_back(torch::eye(3, float_options));
+          translations[s].push_back(torch::zeros({3}, float_options));
         }
       }
     }
@@ -621,13 +632,13 @@ StepRecord Trainer::JointStep(const Batch& batch, int iteration) {
   const std::vector<torch::Tensor> targets = ImagePyramid(batch.target, levels);
   const torch::Tensor appearance =
       ViewSynthesisLoss(batch, depth.depth, rotation, translation, options_.loss);
-  torch::Tensor smoothness = torch::zeros({});
+  torch::Tensor smoothness = torch::zeros({}, float_options);
   for (int l = 0; l < levels; ++l) {
     const double scale = 1.0 / (1 << l);
     const torch::Tensor disparity = 10.0 * depth.sigmoid[l] + 0.01;
     smoothness = smoothness + SmoothnessLoss(disparity, targets[l]) * scale;
   }
-  torch::Tensor consistency = torch::zeros({});
+  torch::Tensor consistency = torch::zeros({}, float_options);
   if (options_.loss.depth_consistency_weight > 0.0) {
     for (int s = 0; s < 2; ++s) {
       consistency =
@@ -636,7 +647,7 @@ StepRecord Trainer::JointStep(const Batch& batch, int iteration) {
                                                    translation[s], batch.intrinsics, pose_ok[s]);
     }
   }
-  torch::Tensor reconstruction = torch::zeros({});
+  torch::Tensor reconstruction = torch::zeros({}, float_options);
   if (options_.loss.ae_weight > 0.0) {
     const std::vector<torch::Tensor> recon = networks_->feature->Reconstruct(target.features);
     for (int l = 0; l < levels; ++l) {
@@ -761,10 +772,13 @@ void Trainer::SaveCheckpoint(const std::string& path) const {
 
 namespace {
 
-torch::serialize::InputArchive OpenCheckpoint(const std::string& path) {
+// Opens a checkpoint with every tensor mapped to `device` (checkpoints hold the tensors of the
+// device they were trained on: one written on a GPU loads on a CPU-only machine).
+torch::serialize::InputArchive OpenCheckpoint(const std::string& path,
+                                              const torch::Device& device) {
   torch::serialize::InputArchive archive;
   try {
-    archive.load_from(path);
+    archive.load_from(path, device);
   } catch (const c10::Error& e) {
     throw InputError("checkpoint " + path + ": not a dfo_train checkpoint or unreadable (" +
                      std::string(e.what_without_backtrace()).substr(0, 200) + ")");
@@ -788,7 +802,7 @@ void CheckShape(torch::serialize::InputArchive& archive, const std::string& path
 }  // namespace
 
 void Trainer::LoadCheckpoint(const std::string& path) {
-  torch::serialize::InputArchive archive = OpenCheckpoint(path);
+  torch::serialize::InputArchive archive = OpenCheckpoint(path, device_);
   CheckShape(archive, path, options_.network);
   try {
     torch::serialize::InputArchive nets, optim;
@@ -802,7 +816,7 @@ void Trainer::LoadCheckpoint(const std::string& path) {
     archive.read("history", h);
     iteration_ = static_cast<int>(it.item<int64_t>());
     history_.clear();
-    h = h.to(torch::kFloat64).contiguous();
+    h = h.to(torch::kCPU, torch::kFloat64).contiguous();
     auto a = h.accessor<double, 2>();
     for (int64_t i = 0; i < h.size(0); ++i) {
       StepRecord r;
@@ -832,7 +846,7 @@ void Trainer::LoadCheckpoint(const std::string& path) {
 }
 
 void Trainer::LoadWeights(const std::string& path) {
-  torch::serialize::InputArchive archive = OpenCheckpoint(path);
+  torch::serialize::InputArchive archive = OpenCheckpoint(path, device_);
   CheckShape(archive, path, options_.network);
   try {
     torch::serialize::InputArchive nets;
@@ -850,8 +864,9 @@ std::vector<torch::Tensor> Trainer::PredictDepth(const torch::Tensor& images) {
   networks_->eval();
   const auto format =
       options_.channels_last ? torch::MemoryFormat::ChannelsLast : torch::MemoryFormat::Contiguous;
-  DepthNetOutput out = networks_->depth->forward(images.contiguous(format));
+  DepthNetOutput out = networks_->depth->forward(images.to(device_).contiguous(format));
   networks_->train();
+  for (torch::Tensor& d : out.depth) d = d.to(torch::kCPU);
   return out.depth;
 }
 

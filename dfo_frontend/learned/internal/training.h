@@ -143,6 +143,13 @@ struct TrainingOptions {
   int threads = 1;             // torch intra-op threads, >= 1
   bool channels_last = true;   // NHWC memory format (oneDNN's fast path on this CPU)
   int checkpoint_every = 500;  // iterations between checkpoints, >= 1
+  // Where the networks train: "cpu", "cuda" or "cuda:N" (train.device). Data batches are made on
+  // the CPU (the same draws on every device) and moved there once per batch; the initial weights
+  // are drawn on the CPU and then moved, so a run starts from the same networks everywhere. On a
+  // CUDA device the results differ from the CPU's in rounding (and need not be bit-reproducible).
+  // A CUDA device needs a LibTorch built with CUDA (README, "A GPU"); Debian's is CPU-only and
+  // the Trainer's constructor throws ConfigError naming train.device for "cuda".
+  std::string device = "cpu";
 
   // Throws ConfigError naming the field ("train.batch_size = 0 violates >= 1").
   void Check() const;
@@ -176,10 +183,11 @@ struct StepRecord {
 // resumed run draws what an uninterrupted one would).
 class Trainer {
  public:
-  // Checks the options (ConfigError) and the data: at least one sequence with a non-static
-  // snippet, every image RGB of its camera's size (InputError naming the sequence and frame).
-  // Images are resized to the training size when the camera differs. Builds the networks from
-  // options.seed.
+  // Checks the options (ConfigError; also when options.device names a CUDA device this LibTorch
+  // cannot use) and the data: at least one sequence with a non-static snippet, every image RGB of
+  // its camera's size (InputError naming the sequence and frame). Images are resized to the
+  // training size when the camera differs. Builds the networks from options.seed, on the CPU,
+  // then moves them to options.device.
   Trainer(const TrainingOptions& options, std::vector<TrainingSequence> data);
   ~Trainer();
 
@@ -195,10 +203,12 @@ class Trainer {
 
   // Checkpoint: network weights, Adam state, iteration, network options and the history. Written
   // to `path` + ".tmp" then renamed (a crash never leaves half a checkpoint). InputError when it
-  // cannot be written.
+  // cannot be written. Tensors are saved on the training device; loading maps them to the
+  // loader's (a checkpoint written on a GPU resumes on the CPU and back).
   void SaveCheckpoint(const std::string& path) const;
-  // Restores a checkpoint written by SaveCheckpoint; InputError naming the file when it is not
-  // one or its network shapes differ from the options'.
+  // Restores a checkpoint written by SaveCheckpoint (on any device: its tensors are loaded onto
+  // this trainer's); InputError naming the file when it is not one or its network shapes differ
+  // from the options'.
   void LoadCheckpoint(const std::string& path);
   // Loads only the network weights of a checkpoint (fine-tuning at another size; fresh Adam,
   // iteration 0).
@@ -215,13 +225,16 @@ class Trainer {
   const std::vector<Snippet>& snippets() const { return snippets_; }
   Networks& networks() { return networks_; }
   const TrainingOptions& options() const { return options_; }
+  // The device the networks train on (options().device).
+  const torch::Device& device() const { return device_; }
 
   // Learning rate and Gumbel temperature at an iteration (0-based) by the schedules.
   double LearningRateAt(int iteration) const;
   double TemperatureAt(int iteration) const;
 
   // The batch of an iteration after augmentation: images N x 3 x H x W for the previous, target
-  // and next frames, and intrinsics N x 4 (fx, fy, cx, cy) at the training size. Deterministic.
+  // and next frames, and intrinsics N x 4 (fx, fy, cx, cy) at the training size. Deterministic:
+  // drawn and augmented on the CPU, then moved to device() (every tensor of the batch is there).
   struct Batch {
     torch::Tensor previous, target, next;
     torch::Tensor intrinsics;
@@ -234,8 +247,8 @@ class Trainer {
   };
   Batch MakeBatch(int iteration) const;
 
-  // Evaluation helper: per-level depth (N x 1 x H_l x W_l) of RGB images N x 3 x H x W in [0, 1]
-  // at the training size, without gradients.
+  // Evaluation helper: per-level depth (N x 1 x H_l x W_l, on the CPU) of RGB images
+  // N x 3 x H x W in [0, 1] (any device) at the training size, without gradients.
   std::vector<torch::Tensor> PredictDepth(const torch::Tensor& images);
 
  private:
@@ -243,6 +256,7 @@ class Trainer {
   StepRecord JointStep(const Batch& batch, int iteration);
 
   TrainingOptions options_;
+  torch::Device device_ = torch::kCPU;  // options_.device
   std::vector<TrainingSequence> data_;
   std::vector<Snippet> snippets_;
   Networks networks_{nullptr};
@@ -292,7 +306,8 @@ torch::Tensor ZScore(const torch::Tensor& features);
 
 // The tracker's hand-made feature pyramid (HandmadeFeatureSource, default options) of one RGB
 // image 3 x H x W in [0, 1] (quantised to 8 bits as the tracker sees frames) with `camera` of its
-// size: num_levels tensors C x H_l x W_l (float, z-scored, no gradient).
+// size: num_levels tensors C x H_l x W_l (float, z-scored, no gradient), on the image's device
+// (computed on the CPU).
 std::vector<torch::Tensor> HandmadePyramid(const torch::Tensor& image, const PinholeCamera& camera,
                                            int num_levels);
 
