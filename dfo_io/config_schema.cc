@@ -1,5 +1,7 @@
 #include "dfo_io/config_schema.h"
 
+#include "dfo_io/device_name.h"
+
 namespace dfo::io {
 namespace {
 
@@ -132,7 +134,8 @@ ConfigSchema BuildSchema() {
             "false = any size whose sides are divisible by 2^(levels - 1)");
   s.AddString("learned.device", "cpu",
               "Where the networks run: cpu, cuda or cuda:N (needs a LibTorch built with CUDA; "
-              "Debian's is CPU-only and refuses cuda at start-up)");
+              "Debian's is CPU-only and refuses cuda at start-up)")
+      .Matches(IsDeviceName, kDeviceNameRule);
 
   s.AddSection("tracker",
                "Direct feature-metric tracker: coarse-to-fine Gauss-Newton, inverse "

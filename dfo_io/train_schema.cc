@@ -1,17 +1,9 @@
 #include "dfo_io/train_schema.h"
 
-#include <string>
+#include "dfo_io/device_name.h"
 
 namespace dfo::io {
 namespace {
-
-// The syntax of train.device: cpu, cuda or cuda:N (dfo_frontend's learned::IsDeviceName, which
-// dfo_io cannot include; whether this LibTorch can use the device is checked by the trainer).
-bool IsDeviceName(const std::string& name) {
-  if (name == "cpu" || name == "cuda") return true;
-  return name.rfind("cuda:", 0) == 0 && name.size() > 5 && name.size() <= 8 &&
-         name.find_first_not_of("0123456789", 5) == std::string::npos;
-}
 
 ConfigSchema BuildTrainSchema() {
   ConfigSchema s;
@@ -162,7 +154,7 @@ ConfigSchema BuildTrainSchema() {
   s.AddString("train.device", "cpu",
               "Where the networks train; cuda needs a LibTorch built with CUDA (Debian's is "
               "CPU-only and refuses cuda at start-up)")
-      .Matches(IsDeviceName, "one of cpu, cuda, cuda:N");
+      .Matches(IsDeviceName, kDeviceNameRule);
   s.AddBool("train.channels_last", true, "NHWC memory format (faster convolutions here)");
   s.AddInt("train.checkpoint_every", 500, "Iterations between checkpoints").Min(1);
   s.AddString("train.init_checkpoint", "",

@@ -305,6 +305,28 @@ TEST(DfoConfig, DefaultYamlEqualsSchemaDefaults) {
   }
 }
 
+TEST(DfoConfig, LearnedDeviceIsCpuCudaOrCudaN) {
+  for (const char* good : {"cpu", "cuda", "cuda:0", "cuda:12"}) {
+    EXPECT_EQ(LoadConfigFromString("", "d.yaml", DfoSchema(),
+                                   {std::string("learned.device=") + good})
+                  .GetString("learned.device"),
+              good);
+  }
+  // Refused when the file is read, before any model is loaded.
+  for (const char* bad : {"gpu", "cuda:x", "cuda:", "CPU"}) {
+    try {
+      LoadConfigFromString("learned:\n  device: \"" + std::string(bad) + "\"\n", "d.yaml",
+                           DfoSchema());
+      ADD_FAILURE() << "accepted learned.device = " << bad;
+    } catch (const ConfigError& e) {
+      const std::string what = e.what();
+      EXPECT_NE(what.find("d.yaml"), std::string::npos) << what;
+      EXPECT_NE(what.find("learned.device"), std::string::npos) << what;
+      EXPECT_NE(what.find("one of cpu, cuda, cuda:N"), std::string::npos) << what;
+    }
+  }
+}
+
 TEST(DfoConfig, EveryShippedYamlParses) {
   int count = 0;
   for (const auto& entry : fs::directory_iterator(test::SourceDir() + "/configs")) {
