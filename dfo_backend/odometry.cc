@@ -228,8 +228,17 @@ int Odometry::ApplyPendingSolve(bool wait) {
   bool finite = true;
   for (const auto& [index, pose] : kf->window.keyframe_poses) finite &= IsFinitePose(pose);
   if (kf->window.optimized && finite) {
-    for (const auto& [index, pose] : kf->window.keyframe_poses) poses_.SetWindowedPose(index, pose);
-    if (kf->window.marginalized_frame_index >= 0 && IsFinitePose(kf->window.marginalized_pose)) {
+    // A keyframe's reported pose follows the window while it is one of the newest max_keyframes
+    // keyframes (see the file comment of odometry.h, "Reported poses").
+    const auto reported = [&](int index) {
+      const int at = FindKeyframeRecord(keyframes_, index);
+      return at >= 0 && position - at < options_.window.max_keyframes;
+    };
+    for (const auto& [index, pose] : kf->window.keyframe_poses) {
+      if (reported(index)) poses_.SetWindowedPose(index, pose);
+    }
+    if (kf->window.marginalized_frame_index >= 0 && IsFinitePose(kf->window.marginalized_pose) &&
+        reported(kf->window.marginalized_frame_index)) {
       poses_.SetWindowedPose(kf->window.marginalized_frame_index, kf->window.marginalized_pose);
     }
   } else if (kf->window.optimized) {

@@ -218,6 +218,47 @@ TEST(Odometry, ProcessesFramesOneAtATimeAndKeepsEveryPose) {
   EXPECT_GE(window, keyframes - 2);
 }
 
+// A keyframe's reported pose follows the window's solves while it is one of the newest
+// max_keyframes keyframes, then stays (odometry.h, "Reported poses"): rebuilt here from the
+// solves' own results. The window's marginalisation rule keeps some keyframes longer on the
+// street (far points stay in view), so the rule is exercised.
+TEST(Odometry, KeyframesAreReportedFromTheSolvesOfTheirFirstMaxKeyframesSteps) {
+  OdometryOptions options = Deterministic(OdometryMode::kBoth);
+  options.window.max_keyframes = 5;
+  Odometry odometry(External(), options);
+  for (int i = 0; i < 60; ++i) odometry.Process(Frames()[i]);
+  const std::vector<KeyframeRecord>& records = odometry.keyframes();
+  int outlived = 0;
+  for (size_t k = 0; k < records.size(); ++k) {
+    const int index = records[k].frame_index;
+    // The newest pose of the keyframe among solves at most max_keyframes - 1 keyframes later.
+    const SE3d* expected = nullptr;
+    bool later_solve_seen = false;
+    for (size_t r = k; r < records.size(); ++r) {
+      const WindowResult& w = records[r].window;
+      if (!records[r].ba_ran || !w.optimized) continue;
+      const SE3d* pose = nullptr;
+      for (const auto& [i, p] : w.keyframe_poses) {
+        if (i == index) pose = &p;
+      }
+      if (w.marginalized_frame_index == index) pose = &w.marginalized_pose;
+      if (pose == nullptr) continue;
+      if (r - k < static_cast<size_t>(options.window.max_keyframes)) {
+        expected = pose;
+      } else {
+        later_solve_seen = true;
+      }
+    }
+    ASSERT_NE(expected, nullptr) << "keyframe " << index;
+    outlived += later_solve_seen ? 1 : 0;
+    const SE3d reported = odometry.poses().WindowedPose(index);
+    EXPECT_EQ(reported.translation(), expected->translation()) << "keyframe " << index;
+    EXPECT_EQ(reported.quaternion().coeffs(), expected->quaternion().coeffs())
+        << "keyframe " << index;
+  }
+  EXPECT_GE(outlived, 1) << "no keyframe stayed in the window beyond max_keyframes steps";
+}
+
 TEST(Odometry, BadInputThrowsAndBooksNothing) {
   Odometry odometry(External(), Deterministic(OdometryMode::kBoth));
   odometry.Process(Frames()[0]);
