@@ -318,7 +318,7 @@ int Run(const Args& args) {
     config.Set("dataset.image_height", static_cast<int64_t>(info.input_height), source);
     dataset.image_width = info.input_width;
     dataset.image_height = info.input_height;
-    sequence = io::OpenSequence(dataset);
+    sequence = sequence.WithOutputSize(info.input_width, info.input_height);
   }
   if (sources.model && sources.model->options().require_input_size) {
     const LearnedModelInfo& info = sources.model->info();

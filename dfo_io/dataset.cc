@@ -57,6 +57,14 @@ void DatasetOptions::Check() const {
   }
 }
 
+Sequence Sequence::WithOutputSize(int width, int height) const {
+  Sequence out = *this;
+  out.options_.image_width = width;
+  out.options_.image_height = height;
+  out.options_.Check();
+  return out;
+}
+
 Sequence::Sequence(std::string name, std::vector<FrameInfo> frames, PinholeCamera native_camera,
                    double depth_scale, DatasetOptions options,
                    std::shared_ptr<const Undistorter> undistorter,

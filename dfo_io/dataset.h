@@ -153,6 +153,12 @@ class Sequence {
 
   const DatasetOptions& options() const { return options_; }
 
+  // The same recording loaded at another output size: options().image_width/height replaced
+  // (ConfigError, as OpenSequence, when they break DatasetOptions' rules; keep_native stays as
+  // it is). Nothing is read again, so a camera file given as a pipe (--set
+  // dataset.camera=<(...)) serves both.
+  Sequence WithOutputSize(int width, int height) const;
+
  private:
   std::string FramePrefix(size_t i) const;
 

@@ -1,6 +1,7 @@
 #include "dfo_io/dataset.h"
 
 #include <gtest/gtest.h>
+#include <sys/stat.h>
 
 #include <cmath>
 #include <cstdio>
@@ -8,6 +9,7 @@
 #include <fstream>
 #include <set>
 #include <string>
+#include <thread>
 
 #include "dfo_core/error.h"
 #include "dfo_io/camera_yaml.h"
@@ -582,6 +584,26 @@ TEST(FolderDataset, ImagesSortedWithFpsTimestamps) {
   EXPECT_DOUBLE_EQ(seq.camera().fy, 31.0 * 0.5);
   EXPECT_EQ(seq.LoadImage(1).width(), 16);
   EXPECT_FALSE(seq.has_ground_truth());
+}
+
+// dataset.camera given as a pipe is read once: a sequence reloaded at another size comes from
+// the one opened (dfo_run switches to a learned model's input size this way).
+TEST(FolderDataset, CameraFromAPipeAndAnotherOutputSize) {
+  const std::string root = MakeFolder("folder_pipe", "");
+  const std::string fifo = root + "/camera_pipe";
+  ASSERT_EQ(mkfifo(fifo.c_str(), 0600), 0);
+  std::thread writer([&] { WriteText(fifo, kCamera); });  // blocks until the reader opens it
+  DatasetOptions o = FolderOptions(root);
+  o.camera = fifo;
+  const Sequence seq = OpenSequence(o);
+  writer.join();
+  const Sequence larger = seq.WithOutputSize(24, 18);
+  EXPECT_EQ(larger.output_width(), 24);
+  EXPECT_EQ(larger.output_height(), 18);
+  EXPECT_DOUBLE_EQ(larger.camera().fx, 30.0 * 0.75);
+  EXPECT_EQ(larger.LoadImage(2).width(), 24);
+  EXPECT_EQ(seq.output_width(), 16);  // the original is unchanged
+  EXPECT_THROW(seq.WithOutputSize(0, 18), ConfigError);
 }
 
 TEST(FolderDataset, TimestampsFile) {
