@@ -51,6 +51,8 @@ const char* KeyframeReasonName(KeyframeReason reason) {
       return "inlier_ratio";
     case KeyframeReason::kMaxInterval:
       return "max_interval";
+    case KeyframeReason::kRetrack:
+      return "retrack";
   }
   return "unknown";
 }

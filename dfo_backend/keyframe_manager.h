@@ -58,9 +58,12 @@ enum class KeyframeReason {
   kResidual,     // residual_ratio
   kInlierRatio,  // min_inlier_ratio
   kMaxInterval,  // max_interval
+  kRetrack,      // the next frame was lost against the keyframe before and tracked against this
+                 // one (FrontendOptions::retrack_on_loss)
 };
 
-// "none", "restart", "translation", "rotation", "residual", "inlier_ratio", "max_interval".
+// "none", "restart", "translation", "rotation", "residual", "inlier_ratio", "max_interval",
+// "retrack".
 const char* KeyframeReasonName(KeyframeReason reason);
 
 // The decision for one frame and the quantities it was made from.

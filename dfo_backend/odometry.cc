@@ -95,6 +95,17 @@ OdometryFrame Odometry::Process(const Frame& frame) {
   out.tracked = frontend_->Process(frame);  // throws on bad input: nothing booked
   out.timings = frontend_->last_timings();
   const TrackedFrame& t = out.tracked;
+  // Lost against the keyframe, tracked against the previous frame: that frame becomes a keyframe
+  // first, so that this one is booked against it.
+  KeyframeData retrack;
+  if (t.retracked_from >= 0 && frontend_->TakeRetrackKeyframe(&retrack)) {
+    DFO_CHECK(retrack.frame_index == last_tracked_.index && poses_.Contains(retrack.frame_index) &&
+              !poses_.IsKeyframe(retrack.frame_index))
+        << "re-track reference " << retrack.frame_index << " is not the previous frame";
+    poses_.PromoteToKeyframe(retrack.frame_index);
+    BecomeKeyframe(last_tracked_, KeyframeReason::kRetrack, &out, /*promoted=*/true, &retrack);
+  }
+  last_tracked_ = t;
   if (t.status != TrackingStatus::kReference && tracked_against_reference) {
     out.tracking_depth = tracked_depth;
   }
@@ -138,11 +149,16 @@ OdometryFrame Odometry::Process(const Frame& frame) {
   return finish();
 }
 
-void Odometry::BecomeKeyframe(const TrackedFrame& t, KeyframeReason reason, OdometryFrame* out) {
+void Odometry::BecomeKeyframe(const TrackedFrame& t, KeyframeReason reason, OdometryFrame* out,
+                              bool promoted, KeyframeData* data) {
   manager_.AcceptKeyframe(t.index);
   last_keyframe_ = t.index;
-  out->keyframe = true;
-  out->keyframe_reason = reason;
+  if (promoted) {
+    out->promoted_keyframe = t.index;
+  } else {
+    out->keyframe = true;
+    out->keyframe_reason = reason;
+  }
   KeyframeRecord kf;
   kf.frame_index = t.index;
   kf.reason = reason;
@@ -153,7 +169,7 @@ void Odometry::BecomeKeyframe(const TrackedFrame& t, KeyframeReason reason, Odom
   // The window takes one keyframe at a time: the previous solve finishes first.
   const int solved = ApplyPendingSolve(/*wait=*/true);
   if (solved >= 0) out->solved_keyframe = solved;
-  SubmitToWindow(t);
+  SubmitToWindow(t, data);
   if (!options_.backend_thread) {
     ApplyPendingSolve(/*wait=*/true);
     out->solved_keyframe = t.index;
@@ -161,11 +177,15 @@ void Odometry::BecomeKeyframe(const TrackedFrame& t, KeyframeReason reason, Odom
   out->backend_ms = MsSince(start);
 }
 
-void Odometry::SubmitToWindow(const TrackedFrame& t) {
+void Odometry::SubmitToWindow(const TrackedFrame& t, KeyframeData* given) {
   KeyframeRecord& kf = keyframes_.back();
   KeyframeData data;
-  const bool ok = frontend_->MakeLastFrameReference(&data);
-  DFO_CHECK(ok) << "frame " << t.index << " is the reference but has no keyframe data";
+  if (given != nullptr) {
+    data = std::move(*given);
+  } else {
+    const bool ok = frontend_->MakeLastFrameReference(&data);
+    DFO_CHECK(ok) << "frame " << t.index << " is the reference but has no keyframe data";
+  }
   // The window works in the windowed trajectory's frame: the keyframe starts at its keyframe's
   // bundle-adjusted pose composed with the tracked relative pose.
   data.world_from_cam = poses_.WindowedPose(t.index);

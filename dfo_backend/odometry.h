@@ -145,6 +145,10 @@ struct OdometryFrame {
   // restart, keeps -1).
   int pose_keyframe_index = -1;
   SE3d kf_from_cam;
+  // The previous frame, made a keyframe during this call because this frame was lost against
+  // the keyframe before and tracked against it (reason kRetrack; TrackedFrame::retracked_from);
+  // -1: none.
+  int promoted_keyframe = -1;
 };
 
 class Odometry {
@@ -180,10 +184,14 @@ class Odometry {
 
  private:
   struct PendingSolve;
-  void BecomeKeyframe(const TrackedFrame& tracked, KeyframeReason reason, OdometryFrame* out);
+  // `tracked` becomes a keyframe. promoted: it is the previous frame (re-track), reported in
+  // out->promoted_keyframe, with its keyframe data in *data; otherwise the frame of this call.
+  void BecomeKeyframe(const TrackedFrame& tracked, KeyframeReason reason, OdometryFrame* out,
+                      bool promoted = false, KeyframeData* data = nullptr);
   // Hands the new keyframe (keyframes_.back()) to the window: on the backend thread, or solved
-  // at once; either way pending_ holds the result until ApplyPendingSolve.
-  void SubmitToWindow(const TrackedFrame& tracked);
+  // at once; either way pending_ holds the result until ApplyPendingSolve. `given`: its keyframe
+  // data (null: the frontend's last frame).
+  void SubmitToWindow(const TrackedFrame& tracked, KeyframeData* given = nullptr);
   // Applies the pending solve (waiting for it when `wait`, else only when it has finished):
   // windowed poses, then the keyframe's tracking depth. Returns its frame index, -1 if none.
   int ApplyPendingSolve(bool wait);
@@ -196,6 +204,7 @@ class Odometry {
   TrajectoryStore poses_;
   std::vector<KeyframeRecord> keyframes_;
   int last_keyframe_ = -1;
+  TrackedFrame last_tracked_;  // the previous frame's result (for a re-track's keyframe)
   std::string reference_depth_ = "source";  // what the current reference is tracked against
   std::unique_ptr<PendingSolve> pending_;   // a keyframe's solve not yet applied
 };

@@ -63,6 +63,9 @@ struct TrackedFrame {
   int iterations = 0;             // Gauss-Newton iterations over all levels and hypotheses
   double reference_mean_depth = 0.0;  // mean valid depth of the reference at the finest level (m)
   LostCause lost_cause = LostCause::kNone;  // why, when status is kLost
+  // Tracking against reference `retracked_from` failed and the frame was tracked again against
+  // the previous frame, which became the reference (reference_index); -1: no re-track.
+  int retracked_from = -1;
 };
 
 }  // namespace dfo

@@ -31,6 +31,9 @@ struct Frontend::State {
   TrackedFrame last_frame;
   FeaturePyramid last_features;
   DepthPyramid last_depth;
+  // The keyframe data of the previous frame when the last Process call re-tracked against it.
+  bool has_retrack_keyframe = false;
+  KeyframeData retrack_keyframe;
 };
 
 namespace {
@@ -119,6 +122,8 @@ TrackedFrame Frontend::Process(const Frame& frame) {
   start = std::chrono::steady_clock::now();
   DepthPyramid depth = depth_->Compute(frame, num_levels);
   timings_.depth_ms = MsSince(start);
+  s.has_retrack_keyframe = false;
+  s.retrack_keyframe = KeyframeData();
 
   start = std::chrono::steady_clock::now();
   // Every return goes through `finish`: the frame's pyramids are kept for MakeLastFrameReference.
@@ -184,8 +189,27 @@ TrackedFrame Frontend::Process(const Frame& frame) {
   // Hypotheses (DSO): constant velocity, zero, half, double motion from the last good frame.
   const SE3d last_from_ref = s.world_from_last.Inverse() * s.world_from_ref;
   const SE3d motion = s.has_motion ? s.last_from_prev : SE3d();
-  const TrackResult result =
-      tracker_.Track(features, tracker_.MakeHypotheses(last_from_ref, motion));
+  TrackResult result = tracker_.Track(features, tracker_.MakeHypotheses(last_from_ref, motion));
+  // Lost against the reference: once more against the previous frame, which becomes the
+  // reference (FrontendOptions::retrack_on_loss). MakeLastFrameReference switches only to a
+  // tracked frame with enough depth; the previous frame is the last good pose here.
+  const bool lost = result.status == TrackingStatus::kLost ||
+                    !IsFinite(s.world_from_ref * result.cur_from_ref.Inverse());
+  if (lost && options_.retrack_on_loss && s.has_last_frame &&
+      s.last_frame.status != TrackingStatus::kLost && s.last_frame.index != s.reference_index) {
+    const int old_reference = s.reference_index;
+    KeyframeData keyframe;
+    if (MakeLastFrameReference(&keyframe)) {
+      const TrackResult retry = tracker_.Track(features, tracker_.MakeHypotheses(SE3d(), motion));
+      if (retry.status != TrackingStatus::kLost &&
+          IsFinite(s.world_from_ref * retry.cur_from_ref.Inverse())) {
+        result = retry;
+        out.retracked_from = old_reference;
+        s.retrack_keyframe = std::move(keyframe);
+        s.has_retrack_keyframe = true;
+      }
+    }
+  }
   out.reference_index = s.reference_index;
   out.reference_mean_depth = s.reference_mean_depth;
   out.num_points = result.num_points;
@@ -304,6 +328,15 @@ bool Frontend::MakeLastFrameReference(KeyframeData* keyframe) {
                              : s.last_features;
     keyframe->depth = s.last_depth;
   }
+  return true;
+}
+
+bool Frontend::TakeRetrackKeyframe(KeyframeData* keyframe) {
+  State& s = *state_;
+  if (!s.has_retrack_keyframe) return false;
+  *keyframe = std::move(s.retrack_keyframe);
+  s.retrack_keyframe = KeyframeData();
+  s.has_retrack_keyframe = false;
   return true;
 }
 

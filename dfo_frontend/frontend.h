@@ -50,6 +50,12 @@ struct FrontendOptions {
   // every ~3 frames): propagate 23.0 m Sim3 ATE against 9.8 m with none, the per-switch ratio
   // noise compounding as a random walk, so "none" is the default.
   std::string depth_scale = "none";
+  // A frame whose tracking against the reference is lost is tracked again against the previous
+  // frame (when that one was tracked and has depth), which then becomes the reference
+  // (TrackedFrame::retracked_from; the Frontend hands its keyframe data out through
+  // TakeRetrackKeyframe). Without it the lost frame keeps the last good pose and the next frame
+  // restarts from it, so the motion of the lost frames is missing from the trajectory.
+  bool retrack_on_loss = true;
   // Threads for the frontend's own work, >= 1. The tracker is currently single-threaded (its
   // per-level problems are small); the value is validated and kept for the learned sources.
   int num_threads = 1;
@@ -102,6 +108,11 @@ class Frontend {
   // false as well when the switch was tried but selected too few points: then the tracker has no
   // reference and the next frame restarts (status kReference).
   bool MakeLastFrameReference(KeyframeData* keyframe);
+
+  // After a Process call whose frame was re-tracked (TrackedFrame::retracked_from >= 0): the
+  // keyframe data of the frame that became the reference then, as MakeLastFrameReference gives
+  // them. Returns false (keyframe untouched) when the last Process call did not re-track.
+  bool TakeRetrackKeyframe(KeyframeData* keyframe);
 
   // Replaces the depth the tracker uses for the current reference, which must be frame
   // `frame_index` (e.g. the depths a sliding window optimised, projected into that keyframe,

@@ -101,6 +101,10 @@ ConfigSchema BuildSchema() {
               "(rescaled to agree with the old reference's points; measured worse with the "
               "default learned model, see models/README.md)")
       .OneOf({"none", "propagate"});
+  s.AddBool("frontend.retrack_on_loss", true,
+            "A frame lost against the reference is tracked again against the previous frame, "
+            "which becomes a keyframe (reason retrack); false: the next frame restarts from the "
+            "last good pose");
 
   // Defaults mirror LearnedModelOptions (dfo_frontend/learned/learned_sources.h) except the model
   // path (required there) and the threads (run.threads there); a test in tests/apps compares them

@@ -20,6 +20,7 @@ FrontendOptions FrontendOptionsFromConfig(const io::Config& config, bool dataset
   o.handmade.blur_sigma_px = config.GetDouble("frontend.handmade_blur_sigma_px");
   o.handmade.keyframe_blur_sigma_px = config.GetDouble("frontend.handmade_keyframe_blur_sigma_px");
   o.depth_scale = config.GetString("frontend.depth_scale");
+  o.retrack_on_loss = config.GetBool("frontend.retrack_on_loss");
 
   TrackerOptions& t = o.tracker;
   t.num_levels = config.GetInt("tracker.num_levels");

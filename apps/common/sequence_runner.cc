@@ -165,6 +165,19 @@ SequenceRunResult RunSequence(const FrameProvider& provider, Odometry* odometry,
                          : "too few textured points with depth");
       }
       record.solved_keyframe = out.solved_keyframe;
+      if (out.promoted_keyframe >= 0) {
+        // The previous frame became a keyframe (re-track): its record says so from now on.
+        const int at = FindKeyframeRecord(odometry->keyframes(), out.promoted_keyframe);
+        DFO_CHECK(at >= 0 && !result.frames.empty() &&
+                  result.frames.back().tracked.index == out.promoted_keyframe)
+            << "promoted keyframe " << out.promoted_keyframe;
+        const KeyframeRecord& kf = odometry->keyframes()[at];
+        FrameRecord& previous = result.frames.back();
+        previous.keyframe = true;
+        previous.keyframe_reason = kf.reason;
+        if (odometry->has_window()) previous.keyframe_depth_scale = kf.window_scale;
+        result.keyframes.push_back(kf);
+      }
       if (out.keyframe) {
         const KeyframeRecord& kf = odometry->keyframes().back();
         result.keyframes.push_back(kf);

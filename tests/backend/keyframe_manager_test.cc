@@ -197,6 +197,7 @@ TEST(KeyframeReasonTest, Names) {
   EXPECT_STREQ(KeyframeReasonName(KeyframeReason::kTranslation), "translation");
   EXPECT_STREQ(KeyframeReasonName(KeyframeReason::kRestart), "restart");
   EXPECT_STREQ(KeyframeReasonName(KeyframeReason::kMaxInterval), "max_interval");
+  EXPECT_STREQ(KeyframeReasonName(KeyframeReason::kRetrack), "retrack");
 }
 
 }  // namespace

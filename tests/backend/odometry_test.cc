@@ -259,6 +259,47 @@ TEST(Odometry, KeyframesAreReportedFromTheSolvesOfTheirFirstMaxKeyframesSteps) {
   EXPECT_GE(outlived, 1) << "no keyframe stayed in the window beyond max_keyframes steps";
 }
 
+// Keyframe rules that keep the first keyframe until tracking against it fails (every second
+// frame): the lost frame is re-tracked against the previous frame, which the Odometry makes a
+// keyframe (reason retrack) before booking the frame against it. Nothing is lost.
+TEST(Odometry, AFrameLostAgainstTheKeyframeMakesThePreviousFrameAKeyframe) {
+  OdometryOptions options = Deterministic(OdometryMode::kBoth);
+  options.keyframe.translation_ratio = 100.0;
+  options.keyframe.rotation_deg = 180.0;
+  options.keyframe.residual_ratio = 100.0;
+  options.keyframe.min_inlier_ratio = 0.0;
+  options.keyframe.max_interval = 1000;
+  Odometry odometry(External(), options);
+  int promoted = -1, previous = -1, retracked = -1;
+  SE3d retracked_kf_from_cam;
+  for (int i = 0; i < 60 && promoted < 0; i += 2) {
+    const OdometryFrame out = odometry.Process(Frames()[i]);
+    EXPECT_NE(out.tracked.status, TrackingStatus::kLost) << "frame " << i;
+    if (out.promoted_keyframe >= 0) {
+      promoted = out.promoted_keyframe;
+      EXPECT_EQ(promoted, previous);
+      EXPECT_EQ(out.tracked.retracked_from, 0);
+      EXPECT_FALSE(out.keyframe);
+      EXPECT_EQ(out.pose_keyframe_index, promoted);  // booked against the new keyframe
+      EXPECT_EQ(out.solved_keyframe, promoted);      // which went through the window
+      retracked = i;
+      retracked_kf_from_cam = out.kf_from_cam;
+    }
+    previous = i;
+  }
+  ASSERT_GE(promoted, 0) << "tracking against frame 0 never failed";
+  ASSERT_EQ(odometry.keyframes().size(), 2u);
+  EXPECT_EQ(odometry.keyframes()[1].frame_index, promoted);
+  EXPECT_EQ(odometry.keyframes()[1].reason, KeyframeReason::kRetrack);
+  EXPECT_TRUE(odometry.keyframes()[1].ba_ran);
+  EXPECT_TRUE(odometry.poses().IsKeyframe(promoted));
+  // The re-tracked frame's pose relative to its new keyframe is the true one (true depth).
+  const SE3d truth = Truth()[promoted].Inverse() * Truth()[retracked];
+  const SE3d error = truth.Inverse() * retracked_kf_from_cam;
+  EXPECT_LT(error.translation().norm(), 0.02) << "true step " << truth.translation().norm();
+  EXPECT_LT(error.so3().Angle() * 180.0 / M_PI, 0.1);
+}
+
 TEST(Odometry, BadInputThrowsAndBooksNothing) {
   Odometry odometry(External(), Deterministic(OdometryMode::kBoth));
   odometry.Process(Frames()[0]);

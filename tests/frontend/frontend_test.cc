@@ -185,6 +185,51 @@ TEST_F(FrontendTest, LostFrameKeepsLastPoseAndNextFrameRestarts) {
   EXPECT_EQ(next.reference_index, 6);
 }
 
+// With the reference held (policy external) and every second frame, tracking against frame 0
+// fails once the camera has moved far enough. FrontendOptions::retrack_on_loss then tracks the
+// frame against the previous one, which becomes the reference; without it the frame is lost.
+TEST_F(FrontendTest, FrameLostAgainstTheReferenceIsRetrackedAgainstThePreviousFrame) {
+  FrontendOptions options;
+  options.reference.policy = "external";
+  options.retrack_on_loss = false;
+  Frontend without(options);
+  int first_lost = -1;
+  for (int i = 0; i < 60 && first_lost < 0; i += 2) {
+    if (without.Process((*frames_)[i]).status == TrackingStatus::kLost) first_lost = i;
+  }
+  ASSERT_GT(first_lost, 2) << "tracking against frame 0 never failed";
+
+  options.retrack_on_loss = true;
+  Frontend with(options);
+  TrackedFrame t;
+  for (int i = 0; i < first_lost; i += 2) {
+    t = with.Process((*frames_)[i]);
+    EXPECT_EQ(t.retracked_from, -1) << "frame " << i;
+  }
+  t = with.Process((*frames_)[first_lost]);
+  const int previous = first_lost - 2;
+  EXPECT_NE(t.status, TrackingStatus::kLost);
+  EXPECT_EQ(t.retracked_from, 0);
+  EXPECT_EQ(t.reference_index, previous);
+  // The pose relative to the previous frame is the true one (true depth).
+  const SE3d truth =
+      sequence_->WorldFromCam(previous).Inverse() * sequence_->WorldFromCam(first_lost);
+  const SE3d error = truth.Inverse() * t.ref_from_cam;
+  EXPECT_LT(error.translation().norm(), 0.02) << "true step " << truth.translation().norm();
+  EXPECT_LT(error.so3().Angle() * 180.0 / M_PI, 0.1);
+  // The previous frame's keyframe data, once.
+  KeyframeData keyframe;
+  ASSERT_TRUE(with.TakeRetrackKeyframe(&keyframe));
+  EXPECT_EQ(keyframe.frame_index, previous);
+  EXPECT_FALSE(keyframe.features.levels.empty());
+  EXPECT_FALSE(with.TakeRetrackKeyframe(&keyframe));
+  // The next frame is tracked against the new reference.
+  t = with.Process((*frames_)[first_lost + 1]);
+  EXPECT_NE(t.status, TrackingStatus::kLost);
+  EXPECT_EQ(t.reference_index, previous);
+  EXPECT_EQ(t.retracked_from, -1);
+}
+
 TEST_F(FrontendTest, BadInputThrowsInputErrorNamingTheFrame) {
   Frontend frontend(FrontendOptions{});
   Frame frame = (*frames_)[3];
