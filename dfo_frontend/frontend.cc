@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <chrono>
 #include <cmath>
+#include <optional>
 #include <sstream>
 #include <utility>
 
@@ -32,8 +33,7 @@ struct Frontend::State {
   FeaturePyramid last_features;
   DepthPyramid last_depth;
   // The keyframe data of the previous frame when the last Process call re-tracked against it.
-  bool has_retrack_keyframe = false;
-  KeyframeData retrack_keyframe;
+  std::optional<KeyframeData> retrack_keyframe;
 };
 
 namespace {
@@ -122,8 +122,7 @@ TrackedFrame Frontend::Process(const Frame& frame) {
   start = std::chrono::steady_clock::now();
   DepthPyramid depth = depth_->Compute(frame, num_levels);
   timings_.depth_ms = MsSince(start);
-  s.has_retrack_keyframe = false;
-  s.retrack_keyframe = KeyframeData();
+  s.retrack_keyframe.reset();
 
   start = std::chrono::steady_clock::now();
   // Every return goes through `finish`: the frame's pyramids are kept for MakeLastFrameReference.
@@ -189,24 +188,26 @@ TrackedFrame Frontend::Process(const Frame& frame) {
   // Hypotheses (DSO): constant velocity, zero, half, double motion from the last good frame.
   const SE3d last_from_ref = s.world_from_last.Inverse() * s.world_from_ref;
   const SE3d motion = s.has_motion ? s.last_from_prev : SE3d();
+  // A result is lost when the tracker says so or its pose (against the current reference) is not
+  // finite.
+  const auto lost = [&](const TrackResult& r) {
+    return r.status == TrackingStatus::kLost ||
+           !IsFinite(s.world_from_ref * r.cur_from_ref.Inverse());
+  };
   TrackResult result = tracker_.Track(features, tracker_.MakeHypotheses(last_from_ref, motion));
   // Lost against the reference: once more against the previous frame, which becomes the
   // reference (FrontendOptions::retrack_on_loss). MakeLastFrameReference switches only to a
   // tracked frame with enough depth; the previous frame is the last good pose here.
-  const bool lost = result.status == TrackingStatus::kLost ||
-                    !IsFinite(s.world_from_ref * result.cur_from_ref.Inverse());
-  if (lost && options_.retrack_on_loss && s.has_last_frame &&
+  if (lost(result) && options_.retrack_on_loss && s.has_last_frame &&
       s.last_frame.status != TrackingStatus::kLost && s.last_frame.index != s.reference_index) {
     const int old_reference = s.reference_index;
     KeyframeData keyframe;
     if (MakeLastFrameReference(&keyframe)) {
-      const TrackResult retry = tracker_.Track(features, tracker_.MakeHypotheses(SE3d(), motion));
-      if (retry.status != TrackingStatus::kLost &&
-          IsFinite(s.world_from_ref * retry.cur_from_ref.Inverse())) {
-        result = retry;
+      TrackResult retry = tracker_.Track(features, tracker_.MakeHypotheses(SE3d(), motion));
+      if (!lost(retry)) {
+        result = std::move(retry);
         out.retracked_from = old_reference;
         s.retrack_keyframe = std::move(keyframe);
-        s.has_retrack_keyframe = true;
       }
     }
   }
@@ -217,7 +218,7 @@ TrackedFrame Frontend::Process(const Frame& frame) {
   out.rmse = result.rmse;
   out.iterations = result.iterations;
   const SE3d world_from_cam = s.world_from_ref * result.cur_from_ref.Inverse();
-  if (result.status == TrackingStatus::kLost || !IsFinite(world_from_cam)) {
+  if (lost(result)) {
     out.status = TrackingStatus::kLost;
     out.lost_cause = LostCause::kTracking;
     out.world_from_cam = s.world_from_last;  // the gap: the last good pose
@@ -333,10 +334,9 @@ bool Frontend::MakeLastFrameReference(KeyframeData* keyframe) {
 
 bool Frontend::TakeRetrackKeyframe(KeyframeData* keyframe) {
   State& s = *state_;
-  if (!s.has_retrack_keyframe) return false;
-  *keyframe = std::move(s.retrack_keyframe);
-  s.retrack_keyframe = KeyframeData();
-  s.has_retrack_keyframe = false;
+  if (!s.retrack_keyframe) return false;
+  *keyframe = std::move(*s.retrack_keyframe);
+  s.retrack_keyframe.reset();
   return true;
 }
 

@@ -1,6 +1,6 @@
 #include "dfo_io/config_schema.h"
 
-#include "dfo_io/device_name.h"
+#include "dfo_core/device_name.h"
 
 namespace dfo::io {
 namespace {

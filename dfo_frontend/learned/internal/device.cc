@@ -2,21 +2,15 @@
 
 #include <torch/cuda.h>
 
+#include "dfo_core/device_name.h"
 #include "dfo_core/error.h"
 #include "dfo_frontend/internal/check_util.h"
 
 namespace dfo::learned {
 
-const char* const kDeviceRule = "one of cpu, cuda, cuda:N";
-
-bool IsDeviceName(const std::string& name) {
-  if (name == "cpu" || name == "cuda") return true;
-  return name.rfind("cuda:", 0) == 0 && name.size() > 5 && name.size() <= 8 &&
-         name.find_first_not_of("0123456789", 5) == std::string::npos;
-}
-
 void CheckDeviceName(const std::string& key, const std::string& name) {
-  ::dfo::internal::CheckOption(IsDeviceName(name), key, "\"" + name + "\"", kDeviceRule);
+  ::dfo::internal::CheckOption(::dfo::IsDeviceName(name), key, "\"" + name + "\"",
+                              ::dfo::kDeviceNameRule);
 }
 
 c10::Device ResolveDevice(const std::string& key, const std::string& name) {

@@ -12,13 +12,8 @@
 
 namespace dfo::learned {
 
-// The rule of a device name, for messages: "one of cpu, cuda, cuda:N".
-extern const char* const kDeviceRule;
-
-// true for "cpu", "cuda" and "cuda:N" (N of 1 to 3 decimal digits).
-bool IsDeviceName(const std::string& name);
-
-// Throws ConfigError `<key> = "<name>" violates one of cpu, cuda, cuda:N` unless IsDeviceName.
+// Throws ConfigError `<key> = "<name>" violates one of cpu, cuda, cuda:N` unless IsDeviceName
+// (dfo_core/device_name.h).
 void CheckDeviceName(const std::string& key, const std::string& name);
 
 // The torch device `name` names (checked as CheckDeviceName). ConfigError naming `key` and the

@@ -1,6 +1,6 @@
-#include "dfo_io/device_name.h"
+#include "dfo_core/device_name.h"
 
-namespace dfo::io {
+namespace dfo {
 
 bool IsDeviceName(const std::string& name) {
   if (name == "cpu" || name == "cuda") return true;
@@ -8,4 +8,4 @@ bool IsDeviceName(const std::string& name) {
          name.find_first_not_of("0123456789", 5) == std::string::npos;
 }
 
-}  // namespace dfo::io
+}  // namespace dfo
