@@ -101,6 +101,8 @@ void WindowOptions::Check() const {
           patch_size, "odd and in [1, 9]");
   Require(std::isfinite(max_patch_stretch) && max_patch_stretch > 1.0, "window.max_patch_stretch",
           max_patch_stretch, "> 1");
+  Require(std::isfinite(max_depth_edge_slope) && max_depth_edge_slope >= 0.0,
+          "window.max_depth_edge_slope", max_depth_edge_slope, ">= 0");
   Require(points_per_keyframe >= 1 && points_per_keyframe <= 100000, "window.points_per_keyframe",
           points_per_keyframe, "in [1, 100000]");
   Require(loss == "huber" || loss == "cauchy", "window.loss", loss, "one of {huber, cauchy}");
@@ -252,10 +254,27 @@ Eigen::Vector2d CoarsePixel(int x, int y) { return {(x + 0.5) * 0.5 - 0.5, (y + 
 
 }  // namespace
 
-void WindowOptimizer::SelectPoints(KeyframeState* kf) {
+bool WindowOptimizer::OnDepthEdge(const ImageF& depth, int x, int y, double max_ratio) {
+  float lo = std::numeric_limits<float>::infinity(), hi = 0.0f;
+  for (int dy = -1; dy <= 1; ++dy) {
+    for (int dx = -1; dx <= 1; ++dx) {
+      const float d = depth(x + dx, y + dy);
+      if (!(std::isfinite(d) && d > 0.0f)) return true;  // next to a hole: an edge too
+      lo = std::min(lo, d);
+      hi = std::max(hi, d);
+    }
+  }
+  return hi > max_ratio * lo;
+}
+
+double WindowOptimizer::SelectPoints(KeyframeState* kf) {
   const FeatureLevel& f = kf->level;
   const int w = f.width, h = f.height;
   const int border = options_.patch_size / 2 + 1;
+  const double edge_ratio =
+      options_.max_depth_edge_slope > 0.0 ? 1.0 + options_.max_depth_edge_slope * 2.0 / f.camera.fx
+                                          : 0.0;
+  int num_with_depth = 0, num_on_edge = 0;
   const double cell =
       std::max(2.0, std::sqrt(static_cast<double>(w) * h / (2.0 * options_.points_per_keyframe)));
   const int cells_x = std::max(1, static_cast<int>(std::ceil(w / cell)));
@@ -272,6 +291,11 @@ void WindowOptimizer::SelectPoints(KeyframeState* kf) {
       if (f.has_mask() && f.mask[i] == 0) continue;
       const float d = kf->depth(x, y);
       if (!(std::isfinite(d) && d > 0.0f)) continue;
+      ++num_with_depth;
+      if (edge_ratio > 0.0 && OnDepthEdge(kf->depth, x, y, edge_ratio)) {
+        ++num_on_edge;
+        continue;
+      }
       double score = 0.0;
       for (int c = 0; c < f.channels; ++c) {
         const float* v = f.data.data() + c * plane;
@@ -316,6 +340,7 @@ void WindowOptimizer::SelectPoints(KeyframeState* kf) {
     points_.push_back(std::move(p));
   }
   kf->num_selected = static_cast<int>(chosen.size());
+  return num_with_depth > 0 ? static_cast<double>(num_on_edge) / num_with_depth : 0.0;
 }
 
 // Blocks for every (point, target) pair that involves the new keyframe and is visible.
@@ -729,10 +754,11 @@ WindowResult WindowOptimizer::AddKeyframe(KeyframeData data) {
   kf->initial_depth_scale = data.initial_depth_scale;
   KeyframeState* new_kf = kf.get();
   keyframes_.push_back(std::move(kf));
-  SelectPoints(new_kf);
+  const double depth_edge_fraction = SelectPoints(new_kf);
   ConnectNewKeyframe(new_kf);
 
   WindowResult result;
+  result.depth_edge_fraction = depth_edge_fraction;
   if (options_.depth_search_range > 1.0) SearchNewPointDepths(new_kf, &result);
   const auto solve_start = std::chrono::steady_clock::now();
   if (keyframes_.size() < 2) {

@@ -12,7 +12,7 @@
 //  1. Select up to points_per_keyframe points in the new keyframe at pyramid_level (mask pixels
 //     if the level has a mask, else high feature gradient, one per grid cell, spread over the
 //     image), each with one inverse depth from the keyframe's depth (pixels without a valid
-//     depth are skipped); create a residual block (dfo_backend/feature_metric_cost.h) from every
+//     depth, and with max_depth_edge_slope pixels on a depth edge, are skipped); create a residual block (dfo_backend/feature_metric_cost.h) from every
 //     point to every other window keyframe in which its patch is visible at a similar scale
 //     (max_patch_stretch), old points included.
 //  2. Solve with Ceres (each block as its 7-row CompressedFeatureMetricCost: the same cost,
@@ -72,6 +72,17 @@ struct WindowOptions {
   int coarse_iterations = 0;
   // Side K of the square feature patch per point, pixels at pyramid_level; odd, in [1, 9].
   int patch_size = 3;
+  // Depth edges: a pixel is not selected as a point when the depth across its 3 x 3
+  // neighbourhood (pyramid_level) changes faster than this, as the relative change
+  // (largest / smallest - 1) per radian of viewing angle (the neighbourhood spans 2 / fx rad), so
+  // that a scene gives the same points at any resolution (6: 5 % per pixel at fx = 240 px, 10 % at
+  // 120 px). Its feature there mixes surfaces at different depths, whose parallax differs, so no
+  // single inverse depth explains it in every keyframe; a true depth map also gives it one side's
+  // depth at random. Surfaces seen at a grazing angle (the near road) go too. Per-pixel depth
+  // noise of a few percent reads as edges everywhere (WindowResult::depth_edge_fraction near 1):
+  // turn it off for such depth. Chosen over real and synthetic video, true and learned depth
+  // (docs/window.md, "Points on depth edges"). 0 = off, else > 0.
+  double max_depth_edge_slope = 6.0;
   // A block is created only where the target sees the patch at a similar scale: both singular
   // values of the warp's derivative (feature_metric_cost.h, WarpStretch) within
   // [1 / max_patch_stretch, max_patch_stretch]. Features compared at different scales disagree
@@ -189,6 +200,11 @@ struct WindowResult {
   // to a unique best inverse depth.
   int num_depth_searched = 0;
   int num_depth_moved = 0;
+  // Fraction of the new keyframe's pixels with a valid depth that WindowOptions::
+  // max_depth_edge_slope left out (0 when off): 0.38-0.75 with the default model's depth at
+  // 208 x 64 (the road and outlines), 0.06-0.32 with true depth at 416 x 128. Near 1 means a
+  // depth map whose per-pixel noise the rule reads as edges everywhere.
+  double depth_edge_fraction = 0.0;
   // Wall time of the solves (both) and of the marginalisation, milliseconds.
   double solve_ms = 0.0;
   double marginalization_ms = 0.0;
@@ -243,7 +259,11 @@ class WindowOptimizer {
   struct Block;
   struct PointState;
 
-  void SelectPoints(KeyframeState* keyframe);
+  // Returns the fraction of pixels with a valid depth left out by the depth-edge rule.
+  double SelectPoints(KeyframeState* keyframe);
+  // WindowOptions::max_depth_edge_slope at pixel (x, y), which has its 3 x 3 neighbours inside;
+  // max_ratio = 1 + slope * 2 / fx.
+  static bool OnDepthEdge(const ImageF& depth, int x, int y, double max_ratio);
   void ConnectNewKeyframe(KeyframeState* keyframe);
   // WindowOptions::depth_search_range; fills the result's depth-search counts.
   void SearchNewPointDepths(const KeyframeState* keyframe, WindowResult* result);

@@ -322,6 +322,12 @@ ConfigSchema BuildSchema() {
               "first (DSO: 5 %)")
       .Min(0)
       .Max(1);
+  s.AddDouble("window.max_depth_edge_slope", 6.0,
+              "A pixel is not a window point where the depth across its 3 x 3 neighbourhood "
+              "changes faster than this: (largest / smallest - 1) per radian of viewing angle (6: "
+              "5 % per pixel at fx = 240 px, 10 % at 120 px); a depth edge mixes surfaces with "
+              "different parallax. 0 = off")
+      .Min(0);
   s.AddDouble("window.depth_search_range", 2.0,
               "Depth search of a new keyframe's points along their epipolar lines in the window's "
               "keyframes, over inverse depths within this factor of the start (a wrong source "

@@ -50,6 +50,7 @@ WindowOptions WindowOptionsFromConfig(const io::Config& config) {
   o.outlier_gate_factor = config.GetDouble("window.outlier_gate_factor");
   o.min_point_fraction = config.GetDouble("window.min_point_fraction");
   o.min_marginalized_observations = config.GetInt("window.min_marginalized_observations");
+  o.max_depth_edge_slope = config.GetDouble("window.max_depth_edge_slope");
   o.depth_search_range = config.GetDouble("window.depth_search_range");
   o.depth_search_uniqueness = config.GetDouble("window.depth_search_uniqueness");
   o.marginalization = config.GetBool("backend.marginalization");

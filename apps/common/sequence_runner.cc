@@ -106,6 +106,14 @@ void RefreshKeyframe(const Odometry& odometry, int frame_index, const SequenceRu
                  options.label.c_str(), kf.frame_index,
                  kf.window.message.empty() ? "no reason given" : kf.window.message.c_str());
   }
+  if (kf.ba_ran && kf.window.depth_edge_fraction > 0.9 && target >= 0 &&
+      result->depth_edge_warnings++ == 0 && options.log_stream != nullptr) {
+    std::fprintf(options.log_stream,
+                 "%s: warning: keyframe %d: the window's depth-edge rule left out %.0f %% of the "
+                 "pixels with depth (a noisy depth map?); window.max_depth_edge_slope = 0 turns "
+                 "it off (summary.json keyframes.depth_edge_warnings counts such keyframes)\n",
+                 options.label.c_str(), kf.frame_index, 100.0 * kf.window.depth_edge_fraction);
+  }
 }
 
 }  // namespace
@@ -314,6 +322,7 @@ io::JsonValue KeyframesToJson(const SequenceRunResult& result) {
   k.Set("max_window_keyframes", max_keyframes);
   k.Set("max_points", max_points);
   k.Set("max_residual_blocks", max_blocks);
+  k.Set("depth_edge_warnings", result.depth_edge_warnings);
   k.Set("failures", std::move(failures));
   return k;
 }

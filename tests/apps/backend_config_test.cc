@@ -78,6 +78,7 @@ TEST(BackendConfig, SchemaDefaultsEqualWindowOptionsDefaults) {
   EXPECT_EQ(w.outlier_gate_factor, d.outlier_gate_factor);
   EXPECT_EQ(w.min_point_fraction, d.min_point_fraction);
   EXPECT_EQ(w.min_marginalized_observations, d.min_marginalized_observations);
+  EXPECT_EQ(w.max_depth_edge_slope, d.max_depth_edge_slope);
   EXPECT_EQ(w.depth_search_range, d.depth_search_range);
   EXPECT_EQ(w.depth_search_uniqueness, d.depth_search_uniqueness);
   EXPECT_EQ(w.marginalization, d.marginalization);

@@ -13,6 +13,7 @@
 #include <fstream>
 #include <iostream>
 #include <limits>
+#include <random>
 #include <sstream>
 #include <stdexcept>
 #include <string>
@@ -207,6 +208,39 @@ TEST(DfoRunBadInput, DepthOfAnotherSizeIsAClearError) {
   ExpectOneLineError(r, {bad, "100x30", "expected the image size 416x128"});
   EXPECT_EQ(io::ReadKittiTrajectory(out + "/frontend_kitti.txt").size(), 4u);
   EXPECT_TRUE(ReadSummary(out).Has("error"));
+}
+
+// A depth map with 5 % per-pixel noise leaves the window's depth-edge rule (which expects smooth
+// or exact depth) almost no pixel: dfo_run says so once, with the key that turns it off, and
+// counts such keyframes in the summary; the run itself goes on.
+TEST(DfoRunBadInput, NoisyDepthIsNamedByTheDepthEdgeRule) {
+  const std::string root = MakeSequence("dfo_run_noisy_depth");
+  std::mt19937 rng(3);
+  std::normal_distribution<double> noise(0.0, 0.05);
+  for (int i = 0; i < kFrames; ++i) {
+    ImageU16 depth = io::ReadU16(FramePng(root, "depth_0", i));
+    for (uint16_t& v : depth.vector()) {
+      if (v > 0) v = static_cast<uint16_t>(std::clamp(v * std::exp(noise(rng)), 1.0, 65535.0));
+    }
+    io::WriteU16(FramePng(root, "depth_0", i), depth);
+  }
+  const std::string out = test::MakeTempDir("dfo_run_noisy_depth_out");
+  const CommandResult r = RunDfoRun(RunArgs(root, out));
+  ASSERT_EQ(r.status, 0) << r.err;
+  const std::string warning = "the window's depth-edge rule left out";
+  const size_t first = r.err.find(warning);
+  ASSERT_NE(first, std::string::npos) << r.err;
+  EXPECT_EQ(r.err.find(warning, first + 1), std::string::npos) << "warned more than once";
+  EXPECT_NE(r.err.find("window.max_depth_edge_slope = 0"), std::string::npos) << r.err;
+  EXPECT_GT(ReadSummary(out)["keyframes"]["depth_edge_warnings"].AsInt(), 0);
+
+  // The same frames with their exact depth: no warning.
+  const std::string exact = MakeSequence("dfo_run_exact_depth");
+  const std::string exact_out = test::MakeTempDir("dfo_run_exact_depth_out");
+  const CommandResult e = RunDfoRun(RunArgs(exact, exact_out));
+  ASSERT_EQ(e.status, 0) << e.err;
+  EXPECT_EQ(e.err.find(warning), std::string::npos) << e.err;
+  EXPECT_EQ(ReadSummary(exact_out)["keyframes"]["depth_edge_warnings"].AsInt(), 0);
 }
 
 TEST(DfoRunBadInput, MissingSequenceFolder) {
