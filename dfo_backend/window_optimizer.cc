@@ -254,19 +254,6 @@ Eigen::Vector2d CoarsePixel(int x, int y) { return {(x + 0.5) * 0.5 - 0.5, (y + 
 
 }  // namespace
 
-bool WindowOptimizer::OnDepthEdge(const ImageF& depth, int x, int y, double max_ratio) {
-  float lo = std::numeric_limits<float>::infinity(), hi = 0.0f;
-  for (int dy = -1; dy <= 1; ++dy) {
-    for (int dx = -1; dx <= 1; ++dx) {
-      const float d = depth(x + dx, y + dy);
-      if (!(std::isfinite(d) && d > 0.0f)) return true;  // next to a hole: an edge too
-      lo = std::min(lo, d);
-      hi = std::max(hi, d);
-    }
-  }
-  return hi > max_ratio * lo;
-}
-
 double WindowOptimizer::SelectPoints(KeyframeState* kf) {
   const FeatureLevel& f = kf->level;
   const int w = f.width, h = f.height;
@@ -292,7 +279,8 @@ double WindowOptimizer::SelectPoints(KeyframeState* kf) {
       const float d = kf->depth(x, y);
       if (!(std::isfinite(d) && d > 0.0f)) continue;
       ++num_with_depth;
-      if (edge_ratio > 0.0 && OnDepthEdge(kf->depth, x, y, edge_ratio)) {
+      // Next to a hole counts as an edge too (DepthSpread is then infinite).
+      if (edge_ratio > 0.0 && DepthSpread(kf->depth, x, y, 1) > edge_ratio) {
         ++num_on_edge;
         continue;
       }

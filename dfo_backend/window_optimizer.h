@@ -12,9 +12,10 @@
 //  1. Select up to points_per_keyframe points in the new keyframe at pyramid_level (mask pixels
 //     if the level has a mask, else high feature gradient, one per grid cell, spread over the
 //     image), each with one inverse depth from the keyframe's depth (pixels without a valid
-//     depth, and with max_depth_edge_slope pixels on a depth edge, are skipped); create a residual block (dfo_backend/feature_metric_cost.h) from every
-//     point to every other window keyframe in which its patch is visible at a similar scale
-//     (max_patch_stretch), old points included.
+//     depth, and with max_depth_edge_slope pixels on a depth edge, are skipped); create a
+//     residual block (dfo_backend/feature_metric_cost.h) from every point to every other window
+//     keyframe in which its patch is visible at a similar scale (max_patch_stretch), old points
+//     included.
 //  2. Solve with Ceres (each block as its 7-row CompressedFeatureMetricCost: the same cost,
 //     gradient and normal equations): poses on the SE(3) manifold (pose_manifold.h), the oldest
 //     keyframe held constant (gauge), inverse depths bounded below by min_inverse_depth
@@ -261,9 +262,6 @@ class WindowOptimizer {
 
   // Returns the fraction of pixels with a valid depth left out by the depth-edge rule.
   double SelectPoints(KeyframeState* keyframe);
-  // WindowOptions::max_depth_edge_slope at pixel (x, y), which has its 3 x 3 neighbours inside;
-  // max_ratio = 1 + slope * 2 / fx.
-  static bool OnDepthEdge(const ImageF& depth, int x, int y, double max_ratio);
   void ConnectNewKeyframe(KeyframeState* keyframe);
   // WindowOptions::depth_search_range; fills the result's depth-search counts.
   void SearchNewPointDepths(const KeyframeState* keyframe, WindowResult* result);

@@ -3,8 +3,10 @@
 #ifndef DFO_CORE_IMAGE_H_
 #define DFO_CORE_IMAGE_H_
 
+#include <algorithm>
 #include <cmath>
 #include <cstdint>
+#include <limits>
 #include <vector>
 
 #include "dfo_core/error.h"
@@ -77,6 +79,22 @@ class Image {
 using ImageU8 = Image<uint8_t>;
 using ImageU16 = Image<uint16_t>;
 using ImageF = Image<float>;
+
+// Largest over smallest value of a one-channel depth map in the (2 radius + 1)^2 square around
+// (x, y), which must lie inside the image; +infinity when a value there is not finite and
+// positive (a hole). 1 on a surface facing the camera; large at depth edges.
+inline float DepthSpread(const ImageF& depth, int x, int y, int radius) {
+  float lo = std::numeric_limits<float>::infinity(), hi = 0.0f;
+  for (int dy = -radius; dy <= radius; ++dy) {
+    for (int dx = -radius; dx <= radius; ++dx) {
+      const float d = depth(x + dx, y + dy);
+      if (!(std::isfinite(d) && d > 0.0f)) return std::numeric_limits<float>::infinity();
+      lo = std::min(lo, d);
+      hi = std::max(hi, d);
+    }
+  }
+  return hi / lo;
+}
 
 }  // namespace dfo
 

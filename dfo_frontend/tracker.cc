@@ -157,23 +157,8 @@ int Tracker::SetReference(const FeaturePyramid& features, const DepthPyramid& de
     // patch grown by one pixel (colours there mix surfaces whose parallax differs).
     const float max_ratio = static_cast<float>(options_.max_patch_depth_ratio);
     auto patch_depth_valid = [&](int x, int y) {
-      float z_min = std::numeric_limits<float>::max(), z_max = 0.0f;
-      for (int dy = -half; dy <= half; ++dy) {
-        for (int dx = -half; dx <= half; ++dx) {
-          const float z = d(x + dx, y + dy);
-          if (!(z > 0.0f) || !std::isfinite(z)) return false;
-        }
-      }
-      if (max_ratio <= 0.0f) return true;
-      for (int dy = -half - 1; dy <= half + 1; ++dy) {
-        for (int dx = -half - 1; dx <= half + 1; ++dx) {
-          const float z = d(x + dx, y + dy);
-          if (!(z > 0.0f)) return false;
-          z_min = std::min(z_min, z);
-          z_max = std::max(z_max, z);
-        }
-      }
-      return z_max <= max_ratio * z_min;
+      if (!std::isfinite(DepthSpread(d, x, y, half))) return false;
+      return max_ratio <= 0.0f || DepthSpread(d, x, y, half + 1) <= max_ratio;
     };
     for (int cy = border; cy < h - border; cy += cell) {
       for (int cx = border; cx < w - border; cx += cell) {
