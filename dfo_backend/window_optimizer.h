@@ -76,8 +76,8 @@ struct WindowOptions {
   // Depth edges: a pixel is not selected as a point when the depth across its 3 x 3
   // neighbourhood (pyramid_level) changes faster than this, as the relative change
   // (largest / smallest - 1) per radian of viewing angle (the neighbourhood spans 2 / fx rad), so
-  // that a scene gives the same points at any resolution (6: 5 % per pixel at fx = 240 px, 10 % at
-  // 120 px). Its feature there mixes surfaces at different depths, whose parallax differs, so no
+  // that a scene gives the same points at any resolution (6: 5 % across the neighbourhood at
+  // fx = 240 px, 10 % at 120 px). Its feature there mixes surfaces at different depths, whose parallax differs, so no
   // single inverse depth explains it in every keyframe; a true depth map also gives it one side's
   // depth at random. Surfaces seen at a grazing angle (the near road) go too. Per-pixel depth
   // noise of a few percent reads as edges everywhere (WindowResult::depth_edge_fraction near 1):

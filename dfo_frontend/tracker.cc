@@ -157,8 +157,9 @@ int Tracker::SetReference(const FeaturePyramid& features, const DepthPyramid& de
     // patch grown by one pixel (colours there mix surfaces whose parallax differs).
     const float max_ratio = static_cast<float>(options_.max_patch_depth_ratio);
     auto patch_depth_valid = [&](int x, int y) {
-      if (!std::isfinite(DepthSpread(d, x, y, half))) return false;
-      return max_ratio <= 0.0f || DepthSpread(d, x, y, half + 1) <= max_ratio;
+      // A hole anywhere in the square makes DepthSpread infinite.
+      if (max_ratio <= 0.0f) return std::isfinite(DepthSpread(d, x, y, half));
+      return DepthSpread(d, x, y, half + 1) <= max_ratio;
     };
     for (int cy = border; cy < h - border; cy += cell) {
       for (int cx = border; cx < w - border; cx += cell) {

@@ -325,7 +325,7 @@ ConfigSchema BuildSchema() {
   s.AddDouble("window.max_depth_edge_slope", 6.0,
               "A pixel is not a window point where the depth across its 3 x 3 neighbourhood "
               "changes faster than this: (largest / smallest - 1) per radian of viewing angle (6: "
-              "5 % per pixel at fx = 240 px, 10 % at 120 px); a depth edge mixes surfaces with "
+              "5 % across it at fx = 240 px, 10 % at 120 px); a depth edge mixes surfaces with "
               "different parallax. 0 = off")
       .Min(0);
   s.AddDouble("window.depth_search_range", 2.0,
