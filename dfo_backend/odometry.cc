@@ -134,7 +134,11 @@ OdometryFrame Odometry::Process(const Frame& frame) {
   } else {
     out.kf_from_cam = t.world_from_cam;
   }
-  poses_.AddFrame(t.index, t.timestamp_ns, out.pose_keyframe_index, out.kf_from_cam);
+  // A frame tracked against its keyframe's source-based depth takes the keyframe's step scale in
+  // the windowed trajectory (set at the keyframe's solve, which in sequential mode came first).
+  const bool scale_step = window_ && options_.tracking.rescale_source_steps &&
+                          (out.tracking_depth == "source" || out.tracking_depth == "scaled_source");
+  poses_.AddFrame(t.index, t.timestamp_ns, out.pose_keyframe_index, out.kf_from_cam, scale_step);
   if (t.status == TrackingStatus::kLost) return finish();
   bool switched = false;
   if (external_) {
@@ -266,15 +270,31 @@ int Odometry::ApplyPendingSolve(bool wait) {
     kf->window.message = "non-finite keyframe pose after the solve; poses not taken";
   }
 
-  // What the next frames are tracked against (only while the keyframe is still the reference).
   const TrackingDepthOptions& tracking = options_.tracking;
+  std::vector<Eigen::Vector3d> points;
+  if (kf->window.optimized) points = window_->PointsInKeyframe(t);
+  if (tracking.rescale_source_steps && !points.empty() && !pending->cameras.empty() &&
+      pending->keyframe_depth.num_levels() > 0) {
+    // The frames tracked against the keyframe's source-based depth: the source's map as it is
+    // (tracker.depth source, or no window scale known to bring it to the window's) or at the
+    // window's scale seen from the starting pose (scaled_source). keyframe_depth is the latter
+    // when that scale is known.
+    const double ratio = WindowToSourceScale(points, pending->keyframe_depth.levels[0],
+                                             pending->cameras[0], tracking.min_window_points);
+    const bool raw_source = tracking.depth == "source" && kf->window_scale > 0.0;
+    if (ratio > 0.0) {
+      kf->step_scale = ratio * (raw_source ? kf->window_scale : 1.0);
+      poses_.SetWindowedStepScale(t, kf->step_scale);
+    }
+  }
+
+  // What the next frames are tracked against (only while the keyframe is still the reference).
   if (tracking.depth != "window" || last_keyframe_ != t) return t;
   const auto set_depth = [&](const DepthPyramid& depth, const char* name) {
     if (!frontend_->SetReferenceDepth(t, depth)) return false;
     kf->tracking_depth = reference_depth_ = name;
     return true;
   };
-  const std::vector<Eigen::Vector3d> points = window_->PointsInKeyframe(t);
   if (kf->window.optimized && !points.empty()) {
     const TrackingDepth depth =
         BuildTrackingDepth(pending->keyframe_depth, pending->cameras, points, tracking);

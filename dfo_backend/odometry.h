@@ -118,6 +118,10 @@ struct KeyframeRecord {
   // started at (TrackingDepthOptions::initial_depth_scale; 1 = the source's depth).
   double window_scale = 0.0;
   double initial_depth_scale = 1.0;
+  // The factor on the steps of the frames tracked against the keyframe's source-based depth in
+  // the windowed trajectory (TrackingDepthOptions::rescale_source_steps), set at the keyframe's
+  // solve; 0: none (option off, no solve, too few window points, or no frame needs it).
+  double step_scale = 0.0;
 };
 
 // Position in `records` of the record of keyframe `frame_index`, searched from the newest;

@@ -47,6 +47,14 @@ struct TrackingDepthOptions {
   // 03 in 100-frame pieces, docs/tracking_against_the_window.md), "window" feeds the window's
   // own scale error back into every new keyframe: the scale grew up to 7.5x in 100 frames.
   std::string initial_depth_scale = "source";
+  // window.rescale_source_steps: a frame tracked against its keyframe's source depth (tracker.depth
+  // "source", or a keyframe that fell back to it) gets, in the windowed trajectory, its
+  // translation from the keyframe multiplied by the median ratio of the window's depth to that
+  // depth over the window's points seen from the keyframe after its solve: the frame's step is
+  // then in the scale of the keyframe's windowed pose, as the steps between keyframes are. Off,
+  // the step keeps the source's scale (frames between keyframes then zigzag where the window's
+  // scale differs from the source's). Frames tracked against the window's depth need no factor.
+  bool rescale_source_steps = true;
 
   void Check() const;
 };

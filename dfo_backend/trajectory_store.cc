@@ -1,5 +1,7 @@
 #include "dfo_backend/trajectory_store.h"
 
+#include <cmath>
+
 #include "dfo_core/error.h"
 
 namespace dfo {
@@ -24,7 +26,7 @@ void TrajectoryStore::Append(const Entry& entry) {
 }
 
 void TrajectoryStore::AddFrame(int frame_index, int64_t timestamp_ns, int keyframe_index,
-                               const SE3d& kf_from_frame) {
+                               const SE3d& kf_from_frame, bool scale_step) {
   if (keyframe_index >= 0) {
     DFO_CHECK(IsKeyframe(keyframe_index)) << "frame " << frame_index << " tracked against frame "
                                           << keyframe_index << ", which is not a keyframe";
@@ -34,6 +36,7 @@ void TrajectoryStore::AddFrame(int frame_index, int64_t timestamp_ns, int keyfra
   e.timestamp_ns = timestamp_ns;
   e.keyframe_index = keyframe_index;
   e.kf_from_frame = kf_from_frame;
+  if (scale_step && keyframe_index >= 0) e.step_scale = Get(keyframe_index).windowed_step_scale;
   Append(e);
 }
 
@@ -65,7 +68,7 @@ void TrajectoryStore::PromoteToKeyframe(int frame_index) {
   DFO_CHECK(e.keyframe_index >= 0) << "frame " << frame_index << " has no keyframe";
   const Entry& kf = Get(e.keyframe_index);
   e.frontend_world_from_kf = kf.frontend_world_from_kf * e.kf_from_frame;
-  e.windowed_world_from_kf = kf.windowed_world_from_kf * e.kf_from_frame;
+  e.windowed_world_from_kf = kf.windowed_world_from_kf * ScaledStep(e);
   e.is_keyframe = true;
   ++num_keyframes_;
   last_keyframe_ = frame_index;
@@ -75,6 +78,25 @@ void TrajectoryStore::SetWindowedPose(int frame_index, const SE3d& world_from_kf
   Entry& e = GetMutable(frame_index);
   DFO_CHECK(e.is_keyframe) << "frame " << frame_index << " is not a keyframe";
   e.windowed_world_from_kf = world_from_kf;
+}
+
+void TrajectoryStore::SetWindowedStepScale(int frame_index, double scale) {
+  Entry& e = GetMutable(frame_index);
+  DFO_CHECK(e.is_keyframe) << "frame " << frame_index << " is not a keyframe";
+  DFO_CHECK(std::isfinite(scale) && scale > 0.0)
+      << "step scale " << scale << " of keyframe " << frame_index << " is not positive";
+  e.windowed_step_scale = scale;
+}
+
+SE3d TrajectoryStore::ScaledStep(const Entry& e) {
+  if (e.step_scale == 1.0) return e.kf_from_frame;
+  return SE3d(e.kf_from_frame.so3(), e.step_scale * e.kf_from_frame.translation());
+}
+
+SE3d TrajectoryStore::WindowedStep(int frame_index) const {
+  const Entry& e = Get(frame_index);
+  if (e.is_keyframe) return SE3d();
+  return e.keyframe_index < 0 ? e.kf_from_frame : ScaledStep(e);
 }
 
 bool TrajectoryStore::Contains(int frame_index) const { return position_.count(frame_index) > 0; }
@@ -88,7 +110,8 @@ SE3d TrajectoryStore::Pose(const Entry& e, bool windowed) const {
   if (e.is_keyframe) return windowed ? e.windowed_world_from_kf : e.frontend_world_from_kf;
   if (e.keyframe_index < 0) return e.kf_from_frame;
   const Entry& kf = Get(e.keyframe_index);
-  return (windowed ? kf.windowed_world_from_kf : kf.frontend_world_from_kf) * e.kf_from_frame;
+  return windowed ? kf.windowed_world_from_kf * ScaledStep(e)
+                  : kf.frontend_world_from_kf * e.kf_from_frame;
 }
 
 SE3d TrajectoryStore::FrontendPose(int frame_index) const { return Pose(Get(frame_index), false); }

@@ -25,9 +25,12 @@ class TrajectoryStore {
   // AddKeyframe) tracked against keyframe `keyframe_index` (already in the store as a keyframe)
   // with pose kf_from_frame (TrackedFrame::ref_from_cam). keyframe_index = -1 (no keyframe yet,
   // e.g. a lost first frame): kf_from_frame is the frame's world pose in both trajectories.
-  // Throws InternalError on an index out of order or an unknown keyframe.
+  // scale_step: in the windowed trajectory the translation of kf_from_frame is multiplied by the
+  // keyframe's step scale as it is now (SetWindowedStepScale; kept for the frame when the scale
+  // changes later), for a frame tracked against a depth whose scale is not the window's. Throws
+  // InternalError on an index out of order or an unknown keyframe.
   void AddFrame(int frame_index, int64_t timestamp_ns, int keyframe_index,
-                const SE3d& kf_from_frame);
+                const SE3d& kf_from_frame, bool scale_step = false);
 
   // Adds frame `frame_index` as a keyframe that was not tracked against one (the first frame, a
   // restart after a loss) with the frontend's pose for it. Its relation to the previous keyframe
@@ -46,11 +49,23 @@ class TrajectoryStore {
   // tracked against it follows. Throws InternalError when it is not a keyframe.
   void SetWindowedPose(int frame_index, const SE3d& world_from_kf);
 
+  // Sets keyframe `frame_index`'s step scale (1 until set): the factor on the translation of
+  // kf_from_frame, in the windowed trajectory, of the frames added after this call with
+  // scale_step and tracked against it (the window's depth over the depth they were tracked
+  // against, so that their steps from the keyframe are in the scale of the keyframe's windowed
+  // pose). Frames added before keep theirs, so that a step once published does not change. A
+  // frame promoted to keyframe keeps its scaled step in its windowed pose. Throws InternalError
+  // when it is not a keyframe or the factor is not finite and positive.
+  void SetWindowedStepScale(int frame_index, double scale);
+
   bool Contains(int frame_index) const;
   bool IsKeyframe(int frame_index) const;
   // Pose of a stored frame in either trajectory (InternalError when not stored).
   SE3d FrontendPose(int frame_index) const;
   SE3d WindowedPose(int frame_index) const;
+  // A non-keyframe's pose relative to its keyframe in the windowed trajectory (kf_from_frame
+  // with its step scale); identity for a keyframe, the absolute pose without a keyframe.
+  SE3d WindowedStep(int frame_index) const;
 
   // Every frame, in order.
   Trajectory FrontendTrajectory() const;
@@ -69,14 +84,18 @@ class TrajectoryStore {
     int64_t timestamp_ns = 0;
     int keyframe_index = -1;  // the keyframe tracked against; -1 = none (then pose is absolute)
     SE3d kf_from_frame;       // pose relative to that keyframe (or world pose without one)
+    double step_scale = 1.0;  // windowed: the factor on kf_from_frame's translation
     bool is_keyframe = false;
     SE3d frontend_world_from_kf;  // keyframes: the frontend's pose
     SE3d windowed_world_from_kf;  // keyframes: the backend's pose
+    double windowed_step_scale = 1.0;  // keyframes: SetWindowedStepScale
   };
   const Entry& Get(int frame_index) const;
   Entry& GetMutable(int frame_index);
   void Append(const Entry& entry);
   SE3d Pose(const Entry& e, bool windowed) const;
+  // kf_from_frame of `e` in the windowed trajectory (its translation times e.step_scale).
+  static SE3d ScaledStep(const Entry& e);
 
   std::vector<Entry> frames_;
   std::unordered_map<int, size_t> position_;  // frame index -> position in frames_

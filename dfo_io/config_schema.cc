@@ -344,6 +344,11 @@ ConfigSchema BuildSchema() {
               "ratio of the window's points seen from the keyframe to it (window; measured to feed "
               "the window's scale error back on real video)")
       .OneOf({"window", "source"});
+  s.AddBool("window.rescale_source_steps", true,
+            "A frame tracked against its keyframe's source depth: its translation from the "
+            "keyframe, in the windowed trajectory, times the window's depth over that depth "
+            "(median over the window's points seen from the keyframe after its solve), so that "
+            "it is in the scale of the keyframe's windowed pose");
   s.AddInt("window.min_marginalized_observations", 2,
            "Points of a leaving keyframe with at least this many residual blocks are "
            "marginalised, the rest dropped")

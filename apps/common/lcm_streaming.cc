@@ -90,17 +90,21 @@ void LcmRunStreamer::OnFrame(const FrameRecord& frame, const SequenceRunResult& 
   const int keyframe_index = frame.keyframe ? t.index : frame.pose_keyframe_index;
   const SE3d kf_from_cam = frame.keyframe ? SE3d() : frame.kf_from_cam;
   const bool stored = store.Contains(t.index);
-  const auto publish_pose = [&](const SE3d& world_from_cam, int8_t source) {
+  const auto publish_pose = [&](const SE3d& world_from_cam, int8_t source, const SE3d& step) {
     publisher_.Publish(
         options_.channels.pose,
         io::MakePoseMessage(t.index, t.timestamp_ns, stored ? world_from_cam : t.world_from_cam,
-                            t.status, frame.keyframe, source, keyframe_index, kf_from_cam));
+                            t.status, frame.keyframe, source, keyframe_index, step));
   };
   if (result.has_frontend()) {
-    publish_pose(stored ? store.FrontendPose(t.index) : SE3d(), dfo::pose_t::SOURCE_FRONTEND);
+    publish_pose(stored ? store.FrontendPose(t.index) : SE3d(), dfo::pose_t::SOURCE_FRONTEND,
+                 kf_from_cam);
   }
   if (result.has_windowed()) {
-    publish_pose(stored ? store.WindowedPose(t.index) : SE3d(), dfo::pose_t::SOURCE_WINDOWED);
+    // The windowed step carries the keyframe's step scale (window.rescale_source_steps).
+    const SE3d step = stored && !frame.keyframe ? store.WindowedStep(t.index) : kf_from_cam;
+    publish_pose(stored ? store.WindowedPose(t.index) : SE3d(), dfo::pose_t::SOURCE_WINDOWED,
+                 step);
     // The keyframe whose solve was applied with this frame (the frame itself, or an earlier
     // keyframe when the window solves on the backend thread).
     if (frame.solved_keyframe >= 0) PublishKeyframeBatch(frame.solved_keyframe, result, store);

@@ -98,6 +98,12 @@ void RefreshKeyframe(const Odometry& odometry, int frame_index, const SequenceRu
   const KeyframeRecord& kf = odometry.keyframes()[source];
   const int target = FindKeyframeRecord(result->keyframes, frame_index);
   if (target >= 0) result->keyframes[target] = kf;
+  // A solve applied on the backend thread after the keyframe's own frame was booked.
+  for (auto f = result->frames.rbegin(); f != result->frames.rend(); ++f) {
+    if (f->tracked.index != frame_index) continue;
+    f->windowed_step_scale = kf.step_scale;
+    break;
+  }
   if (kf.ba_ran && !kf.window.optimized && kf.window.keyframe_poses.size() >= 2 &&
       options.log_stream != nullptr) {
     std::fprintf(options.log_stream,
@@ -183,13 +189,19 @@ SequenceRunResult RunSequence(const FrameProvider& provider, Odometry* odometry,
         FrameRecord& previous = result.frames.back();
         previous.keyframe = true;
         previous.keyframe_reason = kf.reason;
-        if (odometry->has_window()) previous.keyframe_depth_scale = kf.window_scale;
+        if (odometry->has_window()) {
+          previous.keyframe_depth_scale = kf.window_scale;
+          previous.windowed_step_scale = kf.step_scale;
+        }
         result.keyframes.push_back(kf);
       }
       if (out.keyframe) {
         const KeyframeRecord& kf = odometry->keyframes().back();
         result.keyframes.push_back(kf);
-        if (odometry->has_window()) record.keyframe_depth_scale = kf.window_scale;
+        if (odometry->has_window()) {
+          record.keyframe_depth_scale = kf.window_scale;
+          record.windowed_step_scale = kf.step_scale;
+        }
       }
       if (out.solved_keyframe >= 0)
         RefreshKeyframe(*odometry, out.solved_keyframe, options, &result);
@@ -467,7 +479,7 @@ std::vector<std::string> RemoveRunOutputs(const std::string& output_dir) {
 std::string FramesCsvHeader() {
   return "index,timestamp_s,status,reference_index,new_reference,num_points,num_inliers,rmse,"
          "iterations,keyframe,keyframe_reason,load_ms,features_ms,depth_ms,tracking_ms,backend_ms,"
-         "total_ms,tracking_depth,keyframe_depth_scale,lost_cause\n";
+         "total_ms,tracking_depth,keyframe_depth_scale,lost_cause,windowed_step_scale\n";
 }
 
 std::string FramesCsvLine(const FrameRecord& f) {
@@ -484,7 +496,8 @@ std::string FramesCsvLine(const FrameRecord& f) {
          Csv(f.features_ms, 3) + "," + Csv(f.depth_ms, 3) + "," + Csv(f.tracking_ms, 3) + "," +
          Csv(f.backend_ms, 3) + "," + Csv(f.total_ms, 3) + "," + f.tracking_depth + "," +
          (f.keyframe_depth_scale > 0.0 ? Csv(f.keyframe_depth_scale, 6) : std::string()) + "," +
-         LostCauseName(t.lost_cause) + "\n";
+         LostCauseName(t.lost_cause) + "," +
+         (f.windowed_step_scale > 0.0 ? Csv(f.windowed_step_scale, 6) : std::string()) + "\n";
 }
 
 void WriteFramesCsv(const std::string& path, const SequenceRunResult& result) {

@@ -31,7 +31,10 @@
 //                         tracked against; empty for frames not tracked), keyframe_depth_scale
 //                         (keyframes in the window: the median ratio of the window's depth to the
 //                         depth source's map seen from the keyframe; empty otherwise or unknown),
-//                         lost_cause (lost frames: tracking, no_depth or few_points; LostCause)
+//                         lost_cause (lost frames: tracking, no_depth or few_points; LostCause),
+//                         windowed_step_scale (keyframes: the factor on the windowed steps of the
+//                         frames tracked against its source-based depth,
+//                         window.rescale_source_steps; empty when none)
 //   summary.json          see MakeRunSummary
 //   frontend_trajectory.png  top view of ground truth and Sim3-aligned estimate coloured by ATE
 //                         (only when at least 3 processed frames have ground truth and plot);
@@ -136,6 +139,9 @@ struct FrameRecord {
   // Keyframes that went to the window: the median ratio of the window's depth to the source's
   // seen from the keyframe (KeyframeRecord::window_scale); 0 otherwise or when unknown.
   double keyframe_depth_scale = 0.0;
+  // Keyframes: the factor on the windowed steps of the frames tracked against the keyframe's
+  // source-based depth (KeyframeRecord::step_scale); 0 otherwise or when none was set.
+  double windowed_step_scale = 0.0;
   // How the pose store holds the frame before it may become a keyframe: relative to keyframe
   // pose_keyframe_index with kf_from_cam (-1: kf_from_cam is the absolute pose; a frame that
   // became a keyframe by itself, e.g. a restart, keeps -1).

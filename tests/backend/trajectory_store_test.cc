@@ -2,6 +2,8 @@
 
 #include <gtest/gtest.h>
 
+#include <cmath>
+
 #include "dfo_core/error.h"
 
 namespace dfo {
@@ -87,6 +89,36 @@ TEST(TrajectoryStoreTest, FrameWithoutKeyframeIsAbsolute) {
   EXPECT_FALSE(s.IsKeyframe(0));
   EXPECT_TRUE(s.Contains(1));
   EXPECT_FALSE(s.Contains(2));
+}
+
+TEST(TrajectoryStoreTest, StepScaleScalesOnlyMarkedStepsAndOnlyInTheWindowedTrajectory) {
+  TrajectoryStore s;
+  s.AddKeyframe(0, 0, Pose(0.0, 0.0));
+  s.SetWindowedStepScale(0, 1.5);  // at the keyframe's solve, before frames are tracked against it
+  s.AddFrame(1, 10, 0, Pose(1.0, 0.01, 0.5), /*scale_step=*/true);
+  s.AddFrame(2, 20, 0, Pose(2.0, 0.02), /*scale_step=*/false);  // e.g. tracked against the window
+  s.AddFrame(3, 30, 0, Pose(3.0, 0.03), /*scale_step=*/true);
+  const SE3d scaled(Pose(1.0, 0.01, 0.5).so3(), 1.5 * Pose(1.0, 0.01, 0.5).translation());
+  ExpectPoseNear(s.WindowedPose(1), scaled);
+  ExpectPoseNear(s.FrontendPose(1), Pose(1.0, 0.01, 0.5));
+  ExpectPoseNear(s.WindowedPose(2), Pose(2.0, 0.02));
+  // A promoted frame keeps its scaled step as its windowed pose; its own frames start from it.
+  s.PromoteToKeyframe(3);
+  ExpectPoseNear(s.WindowedPose(3), Pose(4.5, 0.03));
+  ExpectPoseNear(s.FrontendPose(3), Pose(3.0, 0.03));
+  s.AddFrame(4, 40, 3, Pose(1.0, 0.0), /*scale_step=*/true);
+  ExpectPoseNear(s.WindowedPose(4), Pose(4.5, 0.03) * Pose(1.0, 0.0));  // 3's own scale is 1
+  ExpectPoseNear(s.WindowedStep(1), scaled);
+  ExpectPoseNear(s.WindowedStep(3), SE3d());  // a keyframe
+  // A later change of a keyframe's scale applies to the frames added after it only: a step once
+  // given out (e.g. published) stays.
+  s.SetWindowedStepScale(3, 0.5);
+  ExpectPoseNear(s.WindowedPose(4), Pose(4.5, 0.03) * Pose(1.0, 0.0));
+  s.AddFrame(5, 50, 3, Pose(1.0, 0.0), /*scale_step=*/true);
+  ExpectPoseNear(s.WindowedPose(5), Pose(4.5, 0.03) * Pose(0.5, 0.0));
+  EXPECT_THROW(s.SetWindowedStepScale(1, 2.0), InternalError);  // not a keyframe
+  EXPECT_THROW(s.SetWindowedStepScale(0, 0.0), InternalError);
+  EXPECT_THROW(s.SetWindowedStepScale(0, std::nan("")), InternalError);
 }
 
 TEST(TrajectoryStoreTest, ContractViolationsThrowInternalError) {
