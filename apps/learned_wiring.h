@@ -32,7 +32,7 @@ namespace dfo::apps {
 // The `learned` section of an io::DfoSchema() Config as LearnedModelOptions (not checked; the
 // model's loading checks them): learned.model -> model_path, learned.threads -> num_threads
 // (0 = run.threads, see ThreadsFromConfig), num_levels, channels, rho, require_input_size,
-// device.
+// depth_at_model_size, device.
 inline LearnedModelOptions LearnedModelOptionsFromConfig(const io::Config& config) {
   LearnedModelOptions o;
   o.model_path = config.GetString("learned.model");
@@ -42,6 +42,7 @@ inline LearnedModelOptions LearnedModelOptionsFromConfig(const io::Config& confi
   o.channels = config.GetIntList("learned.channels");
   o.rho = config.GetDoubleList("learned.rho");
   o.require_input_size = config.GetBool("learned.require_input_size");
+  o.depth_at_model_size = config.GetBool("learned.depth_at_model_size");
   o.device = config.GetString("learned.device");
   return o;
 }

@@ -133,6 +133,10 @@ ConfigSchema BuildSchema() {
                   "selectable, in (0, 1]); [] = the file's")
       .GreaterThan(0)
       .Max(1);
+  s.AddBool("learned.depth_at_model_size", false,
+            "The depth network runs on the frame resized to the model's input size and its depth "
+            "is resized back to the frame's (with require_input_size false: a model trained at "
+            "one size gives depth to frames of another); dfo model files only");
   s.AddBool("learned.require_input_size", true,
             "Frames must have the model's input size (set dataset.image_width/height to it); "
             "false = any size whose sides are divisible by 2^(levels - 1)");

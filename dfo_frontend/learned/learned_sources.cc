@@ -138,6 +138,11 @@ void LearnedModel::Impl::Load() {
     model.networks->eval();
   } else {
     info.kind = "torchscript";
+    if (options.depth_at_model_size) {
+      throw InputError(prefix +
+                       "a TorchScript module gives depth and features in one run at the frame's "
+                       "size; learned.depth_at_model_size needs a dfo model file");
+    }
     model.script.to(device);
     model.script.eval();
     // Freezing folds parameters into constants and lets optimize_for_inference fuse conv/ReLU
@@ -215,7 +220,32 @@ void LearnedModel::Impl::Run(const Frame& frame, bool want_features, bool want_d
 
   if (model.kind == learned::LoadedModel::Kind::kDfo) {
     if (need_depth) {
-      StoreDepth(frame, model.networks->depth->forward(input).depth);
+      const bool resize = options.depth_at_model_size &&
+                          (width != o.input_width || height != o.input_height);
+      if (!resize) {
+        StoreDepth(frame, model.networks->depth->forward(input).depth);
+      } else {
+        namespace F = torch::nn::functional;
+        const bool shrink = width >= o.input_width && height >= o.input_height;
+        F::InterpolateFuncOptions to_model =
+            F::InterpolateFuncOptions().size(std::vector<int64_t>{o.input_height, o.input_width});
+        if (shrink) {
+          to_model.mode(torch::kArea);
+        } else {
+          to_model.mode(torch::kBilinear).align_corners(false);
+        }
+        const torch::Tensor small =
+            F::interpolate(input, to_model).contiguous(torch::MemoryFormat::ChannelsLast);
+        std::vector<torch::Tensor> levels = model.networks->depth->forward(small).depth;
+        for (size_t l = 0; l < levels.size(); ++l) {
+          levels[l] = F::interpolate(levels[l], F::InterpolateFuncOptions()
+                                                    .size(std::vector<int64_t>{height >> l,
+                                                                               width >> l})
+                                                    .mode(torch::kBilinear)
+                                                    .align_corners(false));
+        }
+        StoreDepth(frame, levels);
+      }
       stats.ran_depth_network = true;
     }
     if (need_features) {

@@ -64,6 +64,12 @@ struct LearnedModelOptions {
   // otherwise). false: any size whose sides are divisible by 2^(levels - 1) (the networks are
   // fully convolutional; outputs are checked per frame).
   bool require_input_size = true;
+  // true: the depth network runs on the frame resized to the model's input size (area averaging
+  // when shrinking, bilinear when growing) and each level's depth is resized back to the frame's
+  // level (bilinear), so that a model trained at one size gives its depth to frames of another
+  // (e.g. tracking at twice the model's size); the feature network still runs on the frame. A
+  // dfo model file only (InputError at load for TorchScript). false: the networks run on the frame.
+  bool depth_at_model_size = false;
   // Where the networks run: "cpu", "cuda" (the current CUDA device) or "cuda:N". A CUDA device
   // needs a LibTorch built with CUDA (README: pointing CMake at one); Debian's libtorch is built
   // for the CPU only, and asking it for "cuda" is a ConfigError when the model is loaded.

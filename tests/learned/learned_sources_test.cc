@@ -298,6 +298,54 @@ TEST(LearnedSourcesTest, BadFramesNameTheFrame) {
   EXPECT_NE(msg.find("divisible by 8"), std::string::npos) << msg;
 }
 
+// learned.depth_at_model_size: a frame of twice the model's size gets the depth of the model run
+// on the frame brought to its size, resized back (bilinear, pixel centres aligned).
+TEST(LearnedSourcesTest, DepthAtModelSizeIsTheModelsDepthResizedToTheFrame) {
+  const std::string path = WriteSmallModel("sources_depth_at_model_size");
+  LearnedModelOptions options;
+  options.model_path = path;
+  options.num_threads = 1;
+  options.require_input_size = false;
+  options.depth_at_model_size = true;
+  std::shared_ptr<LearnedModel> resized = LoadLearnedModel(options);
+  // Each pixel of the small frame repeated 2 x 2: area averaging gives the small frame back.
+  const Frame small = TestFrame(128, 64, 0);
+  Frame big = TestFrame(256, 128, 0);
+  for (int y = 0; y < 128; ++y) {
+    for (int x = 0; x < 256; ++x) {
+      for (int c = 0; c < 3; ++c) big.image(x, y, c) = small.image(x / 2, y / 2, c);
+    }
+  }
+  const DepthPyramid d_big = MakeLearnedDepthSource(resized)->Compute(big, 4);
+  const DepthPyramid d_small = MakeLearnedDepthSource(LoadSmall(path))->Compute(small, 4);
+  ASSERT_EQ(d_big.num_levels(), 4);
+  for (int l = 0; l < 4; ++l) {
+    const ImageF& b = d_big.levels[l];
+    const ImageF& s = d_small.levels[l];
+    ASSERT_EQ(b.width(), 256 >> l);
+    ASSERT_EQ(b.height(), 128 >> l);
+    // Bilinear with align_corners false: output pixel X reads the source at (X + 0.5) / 2 - 0.5,
+    // clamped to the border.
+    const auto source = [](int x, int n) { return std::clamp((x + 0.5) / 2.0 - 0.5, 0.0, n - 1.0); };
+    for (int y = 0; y < b.height(); y += 3) {
+      for (int x = 0; x < b.width(); x += 5) {
+        const double sx = source(x, s.width()), sy = source(y, s.height());
+        const int x0 = static_cast<int>(sx), y0 = static_cast<int>(sy);
+        const int x1 = std::min(x0 + 1, s.width() - 1), y1 = std::min(y0 + 1, s.height() - 1);
+        const double ax = sx - x0, ay = sy - y0;
+        const double expected = (1 - ay) * ((1 - ax) * s(x0, y0) + ax * s(x1, y0)) +
+                                ay * ((1 - ax) * s(x0, y1) + ax * s(x1, y1));
+        EXPECT_NEAR(b(x, y), expected, 1e-4 * expected) << "level " << l << " at " << x << ", " << y;
+      }
+    }
+  }
+  // The feature network still runs on the frame itself.
+  EXPECT_EQ(MakeLearnedFeatureSource(resized)->Compute(big, 4).levels[0].width, 256);
+  // A frame of the model's size is not resized.
+  const DepthPyramid same = MakeLearnedDepthSource(resized)->Compute(small, 4);
+  EXPECT_EQ(same.levels[0](17, 23), d_small.levels[0](17, 23));
+}
+
 TEST(LearnedSourcesTest, MissingModelFile) {
   LearnedModelOptions options;
   options.model_path = test::MakeTempDir("sources_missing") + "/none.pt";
@@ -428,6 +476,17 @@ TEST(TorchScriptContractTest, ModuleFollowingTheContractFeedsTheSources) {
     }
   }
   const FeaturePyramid features = MakeLearnedFeatureSource(model)->Compute(frame, 3);
+  // A module gives depth and features in one run: depth at the model's size is refused at load.
+  LearnedModelOptions at_model_size = model->options();
+  at_model_size.depth_at_model_size = true;
+  try {
+    LoadLearnedModel(at_model_size);
+    ADD_FAILURE() << "depth_at_model_size accepted for a TorchScript module";
+  } catch (const InputError& e) {
+    EXPECT_NE(std::string(e.what()).find("learned.depth_at_model_size needs a dfo model file"),
+              std::string::npos)
+        << e.what();
+  }
   for (int l = 0; l < 3; ++l) {
     EXPECT_EQ(features.levels[l].channels, l + 2);
     int selected = 0;
