@@ -103,11 +103,15 @@ TEST(VideoRun, LosslessVideoEqualsTheFolderAndLossyVideoTracksAsThePngs) {
   for (const char* file : {"frontend_kitti.txt", "windowed_kitti.txt", "keyframes_tum.txt"}) {
     EXPECT_EQ(ReadFile(out + "/folder/" + file), ReadFile(out + "/mkv/" + file)) << file;
   }
+  // The lossy frames track as the PNGs: the frontend-only trajectory within 1.5x; the windowed
+  // one within the 2-4x that any change of the input, down to float rounding, moves a single
+  // windowed run on these 51 frames (docs/window.md, "Single runs scatter").
   const std::string gt = kitti + "/poses/06.txt";
-  for (const char* file : {"frontend_kitti.txt", "windowed_kitti.txt"}) {
+  for (const auto& [file, factor] :
+       {std::make_pair("frontend_kitti.txt", 1.5), std::make_pair("windowed_kitti.txt", 4.0)}) {
     const double png = Ate(gt, out + "/folder/" + file);
     const double mp4 = Ate(gt, out + "/mp4/" + file);
-    EXPECT_LE(mp4, 1.5 * png + 0.1) << file << ": PNG frames " << png << " m";
+    EXPECT_LE(mp4, factor * png + 0.1) << file << ": PNG frames " << png << " m";
   }
 }
 
