@@ -272,24 +272,35 @@ int Odometry::ApplyPendingSolve(bool wait) {
 
   const TrackingDepthOptions& tracking = options_.tracking;
   std::vector<Eigen::Vector3d> points;
-  if (kf->window.optimized) points = window_->PointsInKeyframe(t);
-  if (tracking.rescale_source_steps && !points.empty() && !pending->cameras.empty() &&
-      pending->keyframe_depth.num_levels() > 0) {
-    // The frames tracked against the keyframe's source-based depth: the source's map as it is
-    // (tracker.depth source, or no window scale known to bring it to the window's) or at the
-    // window's scale seen from the starting pose (scaled_source). keyframe_depth is the latter
-    // when that scale is known.
+  if (kf->window.optimized && (tracking.rescale_source_steps || tracking.depth == "window")) {
+    points = window_->PointsInKeyframe(t);
+  }
+  // What the next frames are tracked against (only while the keyframe is still the reference).
+  if (tracking.depth == "window" && last_keyframe_ == t) ChooseTrackingDepth(*pending, points, kf);
+
+  // The factor that brings the steps of the frames tracked against the keyframe's source-based
+  // depth to the window's scale, from the depth they are tracked against as decided above: the
+  // source's map as it is ("source": keyframe_depth is it times window_scale when that is known)
+  // or at the window's scale seen from the starting pose ("scaled_source": keyframe_depth). The
+  // frames tracked against the window's own depth need none.
+  if (tracking.rescale_source_steps && kf->tracking_depth != "window" && !points.empty() &&
+      !pending->cameras.empty() && pending->keyframe_depth.num_levels() > 0) {
     const double ratio = WindowToSourceScale(points, pending->keyframe_depth.levels[0],
                                              pending->cameras[0], tracking.min_window_points);
-    const bool raw_source = tracking.depth == "source" && kf->window_scale > 0.0;
+    const bool raw_source = kf->tracking_depth == "source" && kf->window_scale > 0.0;
     if (ratio > 0.0) {
       kf->step_scale = ratio * (raw_source ? kf->window_scale : 1.0);
       poses_.SetWindowedStepScale(t, kf->step_scale);
     }
   }
+  return t;
+}
 
-  // What the next frames are tracked against (only while the keyframe is still the reference).
-  if (tracking.depth != "window" || last_keyframe_ != t) return t;
+void Odometry::ChooseTrackingDepth(const PendingSolve& pending,
+                                   const std::vector<Eigen::Vector3d>& points,
+                                   KeyframeRecord* kf) {
+  const TrackingDepthOptions& tracking = options_.tracking;
+  const int t = pending.frame_index;
   const auto set_depth = [&](const DepthPyramid& depth, const char* name) {
     if (!frontend_->SetReferenceDepth(t, depth)) return false;
     kf->tracking_depth = reference_depth_ = name;
@@ -297,18 +308,18 @@ int Odometry::ApplyPendingSolve(bool wait) {
   };
   if (kf->window.optimized && !points.empty()) {
     const TrackingDepth depth =
-        BuildTrackingDepth(pending->keyframe_depth, pending->cameras, points, tracking);
+        BuildTrackingDepth(pending.keyframe_depth, pending.cameras, points, tracking);
     kf->tracking_window_points = depth.num_points;
     if (depth.from_window) {
       if (set_depth(depth.depth, "window")) {
         const std::vector<Eigen::Vector2i> selected = frontend_->tracker().reference_points(0);
         int covered = 0;
-        const int width = pending->cameras[0].width;
+        const int width = pending.cameras[0].width;
         for (const Eigen::Vector2i& p : selected) {
           covered += depth.covered[static_cast<size_t>(p.y()) * width + p.x()] ? 1 : 0;
         }
         kf->tracking_covered = selected.empty() ? 0.0 : double(covered) / selected.size();
-        return t;
+        return;
       }
       kf->tracking_depth_note = "the window depth selects too few tracker points";
     } else {
@@ -320,9 +331,8 @@ int Odometry::ApplyPendingSolve(bool wait) {
   }
   // Fallback: the source's depth at the window's scale (when the window had points to tell it).
   if (kf->tracking_depth != "scaled_source" && kf->window_scale > 0.0) {
-    set_depth(pending->keyframe_depth, "scaled_source");
+    set_depth(pending.keyframe_depth, "scaled_source");
   }
-  return t;
 }
 
 int Odometry::Flush() { return ApplyPendingSolve(/*wait=*/true); }

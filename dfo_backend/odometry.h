@@ -199,6 +199,11 @@ class Odometry {
   // Applies the pending solve (waiting for it when `wait`, else only when it has finished):
   // windowed poses, then the keyframe's tracking depth. Returns its frame index, -1 if none.
   int ApplyPendingSolve(bool wait);
+  // tracker.depth "window": sets what the frames after the solved keyframe `*kf` are tracked
+  // against (the window's depth from `points`, its points in the keyframe's camera, else the
+  // source's at the window's scale) and records it in kf->tracking_depth and its note.
+  void ChooseTrackingDepth(const PendingSolve& pending, const std::vector<Eigen::Vector3d>& points,
+                           KeyframeRecord* kf);
 
   OdometryOptions options_;
   std::unique_ptr<Frontend> frontend_;

@@ -423,5 +423,24 @@ TEST(Odometry, RescaledSourceStepsFollowTheWindowsScale) {
   }
 }
 
+// Tracking against the window with the steps rescaled (both defaults): the frames after a keyframe
+// tracked against the window's own depth are in the window's scale already, so such a keyframe
+// carries no step factor; only one whose frames fell back to the source's depth does.
+TEST(Odometry, KeyframesTrackedAgainstTheWindowHaveNoStepFactor) {
+  OdometryOptions o = Deterministic(OdometryMode::kBoth);
+  o.tracking.depth = "window";
+  o.tracking.rescale_source_steps = true;
+  Odometry odometry(External(), o, nullptr, std::make_unique<RandomScaleDepthSource>());
+  for (const Frame& f : Frames()) odometry.Process(f);
+  int window = 0;
+  for (const KeyframeRecord& kf : odometry.keyframes()) {
+    if (kf.tracking_depth == "window") {
+      ++window;
+      EXPECT_EQ(kf.step_scale, 0.0) << "keyframe " << kf.frame_index;
+    }
+  }
+  EXPECT_GT(window, 0);
+}
+
 }  // namespace
 }  // namespace dfo
