@@ -208,6 +208,7 @@ std::vector<SweepStanding> RankSettings(const std::vector<SweepRow>& rows,
                                         const std::vector<std::string>& sequences) {
   std::vector<SweepStanding> standings(settings.size());
   std::vector<double> relative_sum(settings.size(), 0.0);
+  std::vector<double> log_sum(settings.size(), 0.0);
   for (size_t s = 0; s < settings.size(); ++s) standings[s].setting = settings[s];
   for (const std::string& sequence : sequences) {
     // Scores of this sequence per setting (NaN = no result).
@@ -232,6 +233,7 @@ std::vector<SweepStanding> RankSettings(const std::vector<SweepRow>& rows,
         for (const double v : score) rank += std::isfinite(v) && v < score[s];
         ++standings[s].sequences_ok;
         relative_sum[s] += best > 0 ? score[s] / best : 1.0;
+        log_sum[s] += score[s] > 0 ? std::log(score[s]) : -std::numeric_limits<double>::infinity();
       }
       standings[s].mean_rank += rank;
     }
@@ -240,6 +242,8 @@ std::vector<SweepStanding> RankSettings(const std::vector<SweepRow>& rows,
     standings[s].mean_rank /= std::max<size_t>(1, sequences.size());
     standings[s].mean_relative_ate =
         standings[s].sequences_ok > 0 ? relative_sum[s] / standings[s].sequences_ok : kNaN;
+    standings[s].geometric_mean_ate =
+        standings[s].sequences_ok > 0 ? std::exp(log_sum[s] / standings[s].sequences_ok) : kNaN;
   }
   std::stable_sort(standings.begin(), standings.end(),
                    [](const SweepStanding& a, const SweepStanding& b) {
@@ -327,16 +331,18 @@ std::string SweepMarkdown(const SweepTable& table) {
 
   md << "\n**Overall**: settings by mean rank across the " << table.sequences.size()
      << " sequence(s) (rank 1 = lowest ATE on that sequence; no result = last); ties broken by "
-        "the mean relative ATE (ATE / best ATE on the sequence).\n\n"
-     << "| place | # | setting | mean rank | mean relative ATE | sequences ok |\n"
-     << "|---|---|---|---|---|---|\n";
+        "the mean relative ATE (ATE / best ATE on the sequence). Geometric mean ATE: over the "
+        "sequences the setting has a result on.\n\n"
+     << "| place | # | setting | mean rank | mean relative ATE | geometric mean ATE [m] | "
+        "sequences ok |\n"
+     << "|---|---|---|---|---|---|---|\n";
   const std::vector<SweepStanding> standings =
       RankSettings(table.rows, table.settings, table.sequences);
   for (size_t i = 0; i < standings.size(); ++i) {
     const SweepStanding& s = standings[i];
     md << "| " << i + 1 << " | " << setting_number(s.setting) << " | " << Cell(s.setting) << " | "
        << Fixed(s.mean_rank, 2) << " | " << Fixed(s.mean_relative_ate, 3) << " | "
-       << s.sequences_ok << "/" << table.sequences.size() << " |\n";
+       << Fixed(s.geometric_mean_ate, 4) << " | " << s.sequences_ok << "/" << table.sequences.size() << " |\n";
   }
 
   std::ostringstream problems;

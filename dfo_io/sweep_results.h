@@ -65,6 +65,9 @@ struct SweepStanding {
   std::string setting;
   double mean_rank = 0.0;
   double mean_relative_ate = 0.0;  // mean of score / best score on each sequence (NaN if none)
+  // Geometric mean of the score (ATE, m) over the sequences with a result (NaN if none): the
+  // figure to compare settings by over many similar sequences (not used for the ranking).
+  double geometric_mean_ate = 0.0;
   int sequences_ok = 0;            // sequences with a scored result
 };
 

@@ -134,6 +134,11 @@ TEST(SweepResults, BestPerSequenceAndOverallRanking) {
   EXPECT_EQ(s[1].setting, "r=0.05");
   EXPECT_DOUBLE_EQ(s[1].mean_relative_ate, 1.75);
   EXPECT_EQ(s[2].setting, "r=0.2");
+  // Geometric mean ATE over the sequences with a result: r=0.1 0.2 (one sequence), r=0.05
+  // sqrt(0.3 * 2.0), r=0.2 sqrt(0.6 * 1.0).
+  EXPECT_NEAR(s[0].geometric_mean_ate, 0.2, 1e-12);
+  EXPECT_NEAR(s[1].geometric_mean_ate, std::sqrt(0.6), 1e-12);
+  EXPECT_NEAR(s[2].geometric_mean_ate, std::sqrt(0.6), 1e-12);
 
   // Ranked by the frontend trajectory the scores double; the order is the same here.
   SweepTable f = Table();
@@ -175,7 +180,7 @@ TEST(SweepResults, CsvAndMarkdownContent) {
       << md;
   EXPECT_NE(md.find("- kitti: #3 r=0.2"), std::string::npos) << md;
   EXPECT_NE(md.find("mean rank across the 2 sequence(s)"), std::string::npos);
-  EXPECT_NE(md.find("| 1 | #2 | r=0.1 | 2.00 | 1.000 | 1/2 |"), std::string::npos) << md;
+  EXPECT_NE(md.find("| 1 | #2 | r=0.1 | 2.00 | 1.000 | 0.2000 | 1/2 |"), std::string::npos) << md;
   EXPECT_NE(md.find("- kitti / r=0.1: failed (dfo_run exited with status 1: boom)"),
             std::string::npos)
       << md;
