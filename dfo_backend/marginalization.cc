@@ -257,14 +257,20 @@ bool Marginalize(const std::vector<MarginalizationVariable>& variables,
 }
 
 bool ProjectOutNullspace(const Eigen::MatrixXd& nullspace, double relative_eigenvalue_floor,
-                         LinearPrior* prior) {
+                         LinearPrior* prior, double last_column_kept) {
   const int n = static_cast<int>(prior->jacobian.cols());
   DFO_CHECK(nullspace.rows() == n) << nullspace.rows() << " vs " << n;
   // Orthonormal basis Q of the null space; P = I - Q Q^T.
   const Eigen::HouseholderQR<Eigen::MatrixXd> qr(nullspace);
   const Eigen::MatrixXd q =
       qr.householderQ() * Eigen::MatrixXd::Identity(n, std::min<int>(n, nullspace.cols()));
-  const Eigen::MatrixXd p = Eigen::MatrixXd::Identity(n, n) - q * q.transpose();
+  DFO_CHECK(last_column_kept >= 0.0 && last_column_kept <= 1.0) << last_column_kept;
+  Eigen::MatrixXd p = Eigen::MatrixXd::Identity(n, n) - q * q.transpose();
+  if (last_column_kept > 0.0 && q.cols() > 0) {
+    // Q's last column spans the last nullspace column orthogonalised against the earlier ones.
+    const Eigen::VectorXd u = q.col(q.cols() - 1);
+    p += last_column_kept * u * u.transpose();
+  }
   const Eigen::MatrixXd j = prior->jacobian * p;
   Eigen::MatrixXd h = j.transpose() * j;
   h = 0.5 * (h + h.transpose()).eval();

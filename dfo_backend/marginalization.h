@@ -90,8 +90,11 @@ bool Marginalize(const std::vector<MarginalizationVariable>& variables,
 // different points otherwise gives the prior spurious information along the gauge (measured: a
 // merged prior of rank 26 on 5 poses, whose minimum rotated every pose by 0.7 rad). Returns
 // false when nothing is left.
+// last_column_kept in [0, 1]: the direction of the last column (orthogonalised against the others)
+// is not removed but scaled by it: the prior's information along it is multiplied by its square
+// (0: removed as the others; 1: kept whole).
 bool ProjectOutNullspace(const Eigen::MatrixXd& nullspace, double relative_eigenvalue_floor,
-                         LinearPrior* prior);
+                         LinearPrior* prior, double last_column_kept = 0.0);
 
 // How a prior block's tangent difference x [-] x0 is formed.
 enum class PriorBlockKind {

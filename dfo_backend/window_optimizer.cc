@@ -137,6 +137,8 @@ void WindowOptions::Check() const {
           "in (0, 1]");
   Require(relative_eigenvalue_floor > 0.0 && relative_eigenvalue_floor < 1.0,
           "backend.relative_eigenvalue_floor", relative_eigenvalue_floor, "in (0, 1)");
+  Require(prior_scale_memory >= 0.0 && prior_scale_memory <= 1.0, "backend.prior_scale_memory",
+          prior_scale_memory, "in [0, 1]");
 }
 
 struct WindowOptimizer::KeyframeState {
@@ -928,7 +930,12 @@ void WindowOptimizer::MarginalizeKeyframe(int position, WindowResult* result) {
           nullspace.block<6, 6>(prior.offsets[b], 0).setIdentity();
           nullspace.block<3, 1>(prior.offsets[b], 6) = Eigen::Vector3d(x[4], x[5], x[6]);
         }
-        ok = ProjectOutNullspace(nullspace, options_.relative_eigenvalue_floor, &prior);
+        // With a depth prior the scale is observable: its information is kept, scaled by
+        // prior_scale_memory at each marginalisation (the projector keeps sqrt of it).
+        const double scale_kept =
+            options_.depth_prior_weight > 0.0 ? std::sqrt(options_.prior_scale_memory) : 0.0;
+        ok = ProjectOutNullspace(nullspace, options_.relative_eigenvalue_floor, &prior,
+                                 scale_kept);
         if (!ok) why = "no information left after removing the gauge directions";
       }
       if (ok) {

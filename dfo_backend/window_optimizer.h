@@ -167,6 +167,14 @@ struct WindowOptions {
   // backend.relative_eigenvalue_floor: eigenvalues of the prior below this fraction of the
   // largest are dropped; in (0, 1).
   double relative_eigenvalue_floor = 1e-8;
+  // backend.prior_scale_memory, in [0, 1]: with a depth prior (depth_prior_weight > 0) the scale
+  // is observable, and the information the leaving keyframe's points' depth priors give about it
+  // stays in the marginalisation prior multiplied by this factor at each marginalisation (the
+  // scale direction's component of the projection is kept at sqrt of it), so older keyframes'
+  // scale is forgotten geometrically; 0 removes the scale with the gauge at every
+  // marginalisation (DSO's 7 directions), 1 keeps all of it. Without a depth prior the scale is
+  // always removed.
+  double prior_scale_memory = 0.0;
 
   // Throws ConfigError naming the key, its value and the rule.
   void Check() const;

@@ -374,6 +374,13 @@ ConfigSchema BuildSchema() {
               "Prior eigenvalues below this fraction of the largest are dropped, in (0, 1)")
       .GreaterThan(0)
       .LessThan(1);
+  s.AddDouble("backend.prior_scale_memory", 0.0,
+              "With a depth prior (window.depth_prior_weight > 0): the fraction of the scale "
+              "information a marginalisation keeps in the prior (0 = the scale is removed with "
+              "the gauge, 1 = all kept; older keyframes' scale fades by this factor per "
+              "marginalisation)")
+      .Min(0)
+      .Max(1);
 
   s.AddSection("run", "Running dfo: where results go and how.");
   s.AddString("run.mode", "both",

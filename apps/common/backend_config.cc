@@ -57,6 +57,7 @@ WindowOptions WindowOptionsFromConfig(const io::Config& config) {
   o.first_estimate_jacobians = config.GetBool("backend.first_estimate_jacobians");
   o.prior_weight = config.GetDouble("backend.prior_weight");
   o.relative_eigenvalue_floor = config.GetDouble("backend.relative_eigenvalue_floor");
+  o.prior_scale_memory = config.GetDouble("backend.prior_scale_memory");
   o.num_threads = ThreadsFromConfig(config);
   if (config.GetBool("run.deterministic")) {
     // Identical results run to run: one Ceres thread, and no wall-clock limit on a solve (where

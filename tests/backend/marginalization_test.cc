@@ -324,6 +324,38 @@ TEST(MarginalizationTest, ProjectOutNullspaceRemovesOnlyThoseDirections) {
   EXPECT_LT((b0 - b1).cwiseAbs().maxCoeff(), 1e-10);
 }
 
+// last_column_kept k: the earlier columns' directions are removed as before, and the information
+// along the last one (orthogonalised against them) is multiplied by k^2 instead of removed.
+TEST(MarginalizationTest, ProjectOutNullspaceKeepsAFractionOfTheLastDirection) {
+  std::mt19937 rng(11);
+  std::normal_distribution<double> n(0.0, 1.0);
+  LinearPrior original;
+  original.variables = {0, 1};
+  original.offsets = {0, 3};
+  original.jacobian = Eigen::MatrixXd(6, 6);
+  original.residual = Eigen::VectorXd(6);
+  for (int i = 0; i < 36; ++i) original.jacobian.data()[i] = n(rng);
+  for (int i = 0; i < 6; ++i) original.residual(i) = n(rng);
+  Eigen::MatrixXd nullspace = Eigen::MatrixXd::Zero(6, 2);
+  nullspace.block<3, 1>(0, 0) = Eigen::Vector3d(1, 0, 0);
+  nullspace.block<3, 1>(3, 0) = Eigen::Vector3d(1, 0, 0);
+  nullspace(2, 1) = 1.0;
+  nullspace(0, 1) = 0.5;  // not orthogonal to the first column
+  const Eigen::MatrixXd q =
+      nullspace.householderQr().householderQ() * Eigen::MatrixXd::Identity(6, 2);
+  const Eigen::VectorXd u = q.col(1);  // the last direction, orthogonal to the first
+  const Eigen::VectorXd first = nullspace.col(0);
+  const Eigen::MatrixXd h = original.jacobian.transpose() * original.jacobian;
+  for (const double k : {0.0, 0.5, 1.0}) {
+    LinearPrior prior = original;
+    ASSERT_TRUE(ProjectOutNullspace(nullspace, 1e-12, &prior, k));
+    const Eigen::MatrixXd h1 = prior.jacobian.transpose() * prior.jacobian;
+    EXPECT_EQ(prior.rank(), k > 0.0 ? 5 : 4) << "k " << k;
+    EXPECT_LT((prior.jacobian * first).cwiseAbs().maxCoeff(), 1e-10) << "k " << k;
+    EXPECT_NEAR(u.dot(h1 * u), k * k * u.dot(h * u), 1e-9) << "k " << k;
+  }
+}
+
 TEST(MarginalizationTest, PriorCostPassesGradientChecker) {
   PosePriorFixture fx;
   std::vector<std::vector<double>> x0;

@@ -3,6 +3,7 @@
 // state, NaN depth is harmless, bad input and options are rejected with their names.
 #include "dfo_backend/window_optimizer.h"
 
+#include <Eigen/Eigenvalues>
 #include <gtest/gtest.h>
 
 #include <algorithm>
@@ -246,6 +247,48 @@ TEST(WindowOptimizerTest, WindowStaysBoundedOverALongRunAndMarginalizes) {
     nullspace.block<3, 1>(lp.offsets[b], 6) = Eigen::Vector3d(x0[4], x0[5], x0[6]);
   }
   EXPECT_LT((lp.jacobian * nullspace).norm(), 1e-8 * lp.jacobian.norm() * nullspace.norm());
+}
+
+// With a depth prior the scale is observable: backend.prior_scale_memory 1 keeps the leaving
+// points' information about it in the marginalisation prior, 0 removes it with the gauge; the
+// six directions of a common motion are removed either way.
+TEST(WindowOptimizerTest, PriorScaleMemoryKeepsTheScaleInformationOfADepthPrior) {
+  double scale_information[2] = {0.0, 0.0};
+  int rank[2] = {0, 0};
+  for (int keep = 0; keep < 2; ++keep) {
+    WindowOptions options = TestOptions();
+    options.max_keyframes = 5;
+    options.points_per_keyframe = 60;
+    options.max_iterations = 3;
+    options.depth_prior_weight = 1.0;
+    options.prior_scale_memory = keep;
+    // The scale information is about 1e-10 of the prior's largest eigenvalue here (numerical
+    // noise: about 1e-16 of it); the default floor, 1e-8, would drop it.
+    options.relative_eigenvalue_floor = 1e-13;
+    WindowOptimizer window(options);
+    for (int k = 0; k < 8; ++k) window.AddKeyframe(test::MakeSyntheticKeyframe(Sequence(), 3 * k, 2));
+    ASSERT_NE(window.prior(), nullptr);
+    const LinearPrior& lp = window.prior()->prior();
+    const int n = static_cast<int>(lp.jacobian.cols());
+    Eigen::MatrixXd nullspace = Eigen::MatrixXd::Zero(n, 7);
+    for (size_t b = 0; b < lp.variables.size(); ++b) {
+      const std::vector<double>& x0 = window.prior()->x0()[b];
+      nullspace.block<6, 6>(lp.offsets[b], 0).setIdentity();
+      nullspace.block<3, 1>(lp.offsets[b], 6) = Eigen::Vector3d(x0[4], x0[5], x0[6]);
+    }
+    const Eigen::MatrixXd q = nullspace.householderQr().householderQ() * Eigen::MatrixXd::Identity(n, 7);
+    EXPECT_LT((lp.jacobian * q.leftCols(6)).norm(), 1e-8 * lp.jacobian.norm()) << "keep " << keep;
+    // Information along the scale direction relative to the prior's largest.
+    const Eigen::MatrixXd h = lp.jacobian.transpose() * lp.jacobian;
+    const Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd> eig(h);
+    scale_information[keep] = q.col(6).dot(h * q.col(6)) / eig.eigenvalues().maxCoeff();
+    rank[keep] = lp.rank();
+  }
+  std::printf("[ figures  ] scale information of the prior / its largest: memory 0 %.2e, 1 %.2e\n",
+              scale_information[0], scale_information[1]);
+  EXPECT_LT(std::abs(scale_information[0]), 1e-15);
+  EXPECT_GT(scale_information[1], 1e-11);
+  EXPECT_EQ(rank[1], rank[0] + 1);
 }
 
 TEST(WindowOptimizerTest, MarginalizationOffOnlyDrops) {
