@@ -293,8 +293,9 @@ TEST(MarginalizationTest, PriorEnergyIsInvariantToAGaugeTransform) {
   EXPECT_GT(std::abs(r.squaredNorm() - e0), 1e-3);
 }
 
-TEST(MarginalizationTest, ProjectOutNullspaceRemovesOnlyThoseDirections) {
-  std::mt19937 rng(9);
+// A full-rank prior on two 3-vectors with random Jacobian and residual.
+LinearPrior RandomPrior(unsigned seed) {
+  std::mt19937 rng(seed);
   std::normal_distribution<double> n(0.0, 1.0);
   LinearPrior prior;
   prior.variables = {0, 1};
@@ -303,6 +304,11 @@ TEST(MarginalizationTest, ProjectOutNullspaceRemovesOnlyThoseDirections) {
   prior.residual = Eigen::VectorXd(6);
   for (int i = 0; i < 36; ++i) prior.jacobian.data()[i] = n(rng);
   for (int i = 0; i < 6; ++i) prior.residual(i) = n(rng);
+  return prior;
+}
+
+TEST(MarginalizationTest, ProjectOutNullspaceRemovesOnlyThoseDirections) {
+  LinearPrior prior = RandomPrior(9);
   Eigen::MatrixXd nullspace = Eigen::MatrixXd::Zero(6, 2);
   nullspace.block<3, 1>(0, 0) = Eigen::Vector3d(1, 0, 0);
   nullspace.block<3, 1>(3, 0) = Eigen::Vector3d(1, 0, 0);
@@ -327,15 +333,7 @@ TEST(MarginalizationTest, ProjectOutNullspaceRemovesOnlyThoseDirections) {
 // last_column_kept k: the earlier columns' directions are removed as before, and the information
 // along the last one (orthogonalised against them) is multiplied by k^2 instead of removed.
 TEST(MarginalizationTest, ProjectOutNullspaceKeepsAFractionOfTheLastDirection) {
-  std::mt19937 rng(11);
-  std::normal_distribution<double> n(0.0, 1.0);
-  LinearPrior original;
-  original.variables = {0, 1};
-  original.offsets = {0, 3};
-  original.jacobian = Eigen::MatrixXd(6, 6);
-  original.residual = Eigen::VectorXd(6);
-  for (int i = 0; i < 36; ++i) original.jacobian.data()[i] = n(rng);
-  for (int i = 0; i < 6; ++i) original.residual(i) = n(rng);
+  const LinearPrior original = RandomPrior(11);
   Eigen::MatrixXd nullspace = Eigen::MatrixXd::Zero(6, 2);
   nullspace.block<3, 1>(0, 0) = Eigen::Vector3d(1, 0, 0);
   nullspace.block<3, 1>(3, 0) = Eigen::Vector3d(1, 0, 0);
