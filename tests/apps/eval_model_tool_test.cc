@@ -4,26 +4,16 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
-#include <cstdlib>
-#include <fstream>
-#include <sstream>
 #include <string>
 
+#include "dfo_io/file_reader.h"
+#include "dfo_io/json.h"
 #include "tests/support/test_support.h"
 
 namespace dfo {
 namespace {
 
 #if defined(DFO_TRAIN_EXE) && defined(DFO_RUN_EXE) && defined(DFO_SYNTH_EXE) && defined(DFO_EVAL_EXE)
-
-// The number after the first "key": that follows "after" (the whole text when `after` is empty).
-double JsonNumber(const std::string& text, const std::string& after, const std::string& key) {
-  const size_t from = after.empty() ? 0 : text.find("\"" + after + "\"");
-  if (from == std::string::npos) return NAN;
-  const size_t at = text.find("\"" + key + "\":", from);
-  if (at == std::string::npos) return NAN;
-  return std::strtod(text.c_str() + at + key.size() + 3, nullptr);
-}
 
 TEST(EvalModelTool, MeasuresAModelFileOnTheSyntheticSets) {
   const std::string dir = test::MakeTempDir("eval_model");
@@ -36,24 +26,24 @@ TEST(EvalModelTool, MeasuresAModelFileOnTheSyntheticSets) {
                               " --skip-real --synthetic-frames 12 --demo-frames 30");
   ASSERT_EQ(r.status, 0) << r.out << r.err;
   EXPECT_NE(r.out.find("real sets skipped (--skip-real)"), std::string::npos) << r.out;
-  std::ifstream in(dir + "/out/figures.json");
-  ASSERT_TRUE(in.good());
-  std::stringstream text;
-  text << in.rdbuf();
-  const double abs_rel = JsonNumber(text.str(), "synthetic", "abs_rel");
-  const double cv = JsonNumber(text.str(), "synthetic", "median_scale_cv");
-  const double windowed = JsonNumber(text.str(), "demo_learned", "windowed_ate_rmse");
+  const io::JsonValue figures =
+      io::ParseJson(io::ReadWholeFile(dir + "/out/figures.json", "figures.json", 1u << 20),
+                    "figures.json");
+  const double abs_rel = figures["synthetic"]["abs_rel"].AsNumber();
+  const double cv = figures["synthetic"]["median_scale_cv"].AsNumber();
+  const double windowed = figures["demo_learned"]["windowed_ate_rmse"].AsNumber();
   EXPECT_GT(abs_rel, 0.0);
   EXPECT_LT(abs_rel, 1.0);
   EXPECT_GT(cv, 0.0);
   EXPECT_LT(cv, 1.0);
-  EXPECT_TRUE(std::isfinite(windowed) && windowed > 0.0) << text.str();
+  EXPECT_TRUE(std::isfinite(windowed) && windowed > 0.0);
   // The figure is the one dfo_eval gives on the depth the tool wrote.
   const test::CommandResult e = test::RunCommand(
       DFO_EVAL_EXE, "depth --gt " + dir + "/out/synthetic/sequences/01/depth_0 --pred " + dir +
                         "/out/synthetic_depth --median-scaling --json");
   ASSERT_EQ(e.status, 0) << e.err;
-  EXPECT_NEAR(JsonNumber(e.out, "", "abs_rel"), abs_rel, 1e-9) << e.out;
+  EXPECT_NEAR(io::ParseJson(e.out, "dfo_eval stdout")["abs_rel"].AsNumber(), abs_rel, 1e-9)
+      << e.out;
 
   const test::CommandResult bad = test::RunCommand(
       "/usr/bin/python3", script + " --model " + dir + "/missing.dfo --output " + dir + "/bad");
