@@ -342,7 +342,8 @@ std::string SweepMarkdown(const SweepTable& table) {
     const SweepStanding& s = standings[i];
     md << "| " << i + 1 << " | " << setting_number(s.setting) << " | " << Cell(s.setting) << " | "
        << Fixed(s.mean_rank, 2) << " | " << Fixed(s.mean_relative_ate, 3) << " | "
-       << Fixed(s.geometric_mean_ate, 4) << " | " << s.sequences_ok << "/" << table.sequences.size() << " |\n";
+       << Fixed(s.geometric_mean_ate, 4) << " | " << s.sequences_ok << "/"
+       << table.sequences.size() << " |\n";
   }
 
   std::ostringstream problems;

@@ -13,7 +13,8 @@
 namespace dfo {
 namespace {
 
-#if defined(DFO_TRAIN_EXE) && defined(DFO_RUN_EXE) && defined(DFO_SYNTH_EXE) && defined(DFO_EVAL_EXE)
+#if defined(DFO_TRAIN_EXE) && defined(DFO_RUN_EXE) && defined(DFO_SYNTH_EXE) && \
+    defined(DFO_EVAL_EXE)
 
 TEST(EvalModelTool, MeasuresAModelFileOnTheSyntheticSets) {
   const std::string dir = test::MakeTempDir("eval_model");

@@ -88,6 +88,20 @@ WindowOptions TestOptions() {
   return options;
 }
 
+// The gauge of a marginalisation prior at its linearisation point, in its tangent coordinates
+// (left perturbations of world_from_cam): a common [upsilon; omega] for all poses (6 columns)
+// and the scale, upsilon_i = t_i (7th), as the window projects them out.
+Eigen::MatrixXd GaugeNullspace(const LinearPriorCost& prior) {
+  const LinearPrior& lp = prior.prior();
+  Eigen::MatrixXd nullspace = Eigen::MatrixXd::Zero(lp.jacobian.cols(), 7);
+  for (size_t b = 0; b < lp.variables.size(); ++b) {
+    const std::vector<double>& x0 = prior.x0()[b];
+    nullspace.block<6, 6>(lp.offsets[b], 0).setIdentity();
+    nullspace.block<3, 1>(lp.offsets[b], 6) = Eigen::Vector3d(x0[4], x0[5], x0[6]);
+  }
+  return nullspace;
+}
+
 // Four keyframes (frames 0-9) with 5% log-normal depth noise and every pose but the gauge
 // keyframe's perturbed by `scale` x (5 cm, 0.01 rad) per axis; returns the errors before and after
 // (after the scale, a gauge freedom without a depth prior) and the scale after.
@@ -240,12 +254,7 @@ TEST(WindowOptimizerTest, WindowStaysBoundedOverALongRunAndMarginalizes) {
   const LinearPrior& lp = window.prior()->prior();
   const int n = static_cast<int>(lp.jacobian.cols());
   EXPECT_LE(lp.rank(), n - 7);
-  Eigen::MatrixXd nullspace = Eigen::MatrixXd::Zero(n, 7);
-  for (size_t b = 0; b < lp.variables.size(); ++b) {
-    const std::vector<double>& x0 = window.prior()->x0()[b];
-    nullspace.block<6, 6>(lp.offsets[b], 0).setIdentity();
-    nullspace.block<3, 1>(lp.offsets[b], 6) = Eigen::Vector3d(x0[4], x0[5], x0[6]);
-  }
+  const Eigen::MatrixXd nullspace = GaugeNullspace(*window.prior());
   EXPECT_LT((lp.jacobian * nullspace).norm(), 1e-8 * lp.jacobian.norm() * nullspace.norm());
 }
 
@@ -266,17 +275,14 @@ TEST(WindowOptimizerTest, PriorScaleMemoryKeepsTheScaleInformationOfADepthPrior)
     // noise: about 1e-16 of it); the default floor, 1e-8, would drop it.
     options.relative_eigenvalue_floor = 1e-13;
     WindowOptimizer window(options);
-    for (int k = 0; k < 8; ++k) window.AddKeyframe(test::MakeSyntheticKeyframe(Sequence(), 3 * k, 2));
+    for (int k = 0; k < 8; ++k) {
+      window.AddKeyframe(test::MakeSyntheticKeyframe(Sequence(), 3 * k, 2));
+    }
     ASSERT_NE(window.prior(), nullptr);
     const LinearPrior& lp = window.prior()->prior();
     const int n = static_cast<int>(lp.jacobian.cols());
-    Eigen::MatrixXd nullspace = Eigen::MatrixXd::Zero(n, 7);
-    for (size_t b = 0; b < lp.variables.size(); ++b) {
-      const std::vector<double>& x0 = window.prior()->x0()[b];
-      nullspace.block<6, 6>(lp.offsets[b], 0).setIdentity();
-      nullspace.block<3, 1>(lp.offsets[b], 6) = Eigen::Vector3d(x0[4], x0[5], x0[6]);
-    }
-    const Eigen::MatrixXd q = nullspace.householderQr().householderQ() * Eigen::MatrixXd::Identity(n, 7);
+    const Eigen::MatrixXd q = GaugeNullspace(*window.prior()).householderQr().householderQ() *
+                              Eigen::MatrixXd::Identity(n, 7);
     EXPECT_LT((lp.jacobian * q.leftCols(6)).norm(), 1e-8 * lp.jacobian.norm()) << "keep " << keep;
     // Information along the scale direction relative to the prior's largest.
     const Eigen::MatrixXd h = lp.jacobian.transpose() * lp.jacobian;
@@ -284,8 +290,9 @@ TEST(WindowOptimizerTest, PriorScaleMemoryKeepsTheScaleInformationOfADepthPrior)
     scale_information[keep] = q.col(6).dot(h * q.col(6)) / eig.eigenvalues().maxCoeff();
     rank[keep] = lp.rank();
   }
-  std::printf("[ figures  ] scale information of the prior / its largest: memory 0 %.2e, 1 %.2e\n",
-              scale_information[0], scale_information[1]);
+  std::printf(
+      "[ figures  ] scale information of the prior / its largest: memory 0 %.2e, 1 %.2e\n",
+      scale_information[0], scale_information[1]);
   EXPECT_LT(std::abs(scale_information[0]), 1e-15);
   EXPECT_GT(scale_information[1], 1e-11);
   EXPECT_EQ(rank[1], rank[0] + 1);
