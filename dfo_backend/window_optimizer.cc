@@ -49,6 +49,43 @@ class InverseDepthPriorCost : public ceres::SizedCostFunction<1, 1> {
   double rho0_, sqrt_w_over_rho0_;
 };
 
+// The prior of a keyframe's point with the keyframe's log scale s free
+// (WindowOptions::depth_prior_scale_fraction): r = sqrt(w) (log(rho / rho0) - s) on (rho, s). In
+// logarithms, so that scaling the whole window (depths, translations, s) leaves it unchanged: in
+// the relative form (rho - rho0 exp(s)) / rho0 the cost would shrink as the window grows.
+class ScaledInverseDepthPriorCost : public ceres::SizedCostFunction<1, 1, 1> {
+ public:
+  ScaledInverseDepthPriorCost(double rho0, double weight)
+      : log_rho0_(std::log(rho0)), sqrt_w_(std::sqrt(weight)) {}
+  bool Evaluate(double const* const* parameters, double* residuals,
+                double** jacobians) const override {
+    const double rho = parameters[0][0];
+    if (!(rho > 0.0)) return false;
+    residuals[0] = sqrt_w_ * (std::log(rho) - log_rho0_ - parameters[1][0]);
+    if (jacobians && jacobians[0]) jacobians[0][0] = sqrt_w_ / rho;
+    if (jacobians && jacobians[1]) jacobians[1][0] = -sqrt_w_;
+    return true;
+  }
+
+ private:
+  double log_rho0_, sqrt_w_;
+};
+
+// r = sqrt(W) s on a keyframe's log scale s.
+class LogScalePriorCost : public ceres::SizedCostFunction<1, 1> {
+ public:
+  explicit LogScalePriorCost(double weight) : sqrt_w_(std::sqrt(weight)) {}
+  bool Evaluate(double const* const* parameters, double* residuals,
+                double** jacobians) const override {
+    residuals[0] = sqrt_w_ * parameters[0][0];
+    if (jacobians && jacobians[0]) jacobians[0][0] = sqrt_w_;
+    return true;
+  }
+
+ private:
+  double sqrt_w_;
+};
+
 // Prior on the relative pose of two keyframes toward the frontend's measurement a_from_b:
 // E = meas^-1 (T_a^-1 T_b), r = sqrt(w) [2 vec(q_E); t_E] (as Ceres's pose_graph_3d example).
 struct RelativePosePrior {
@@ -137,6 +174,8 @@ void WindowOptions::Check() const {
           "in (0, 1]");
   Require(relative_eigenvalue_floor > 0.0 && relative_eigenvalue_floor < 1.0,
           "backend.relative_eigenvalue_floor", relative_eigenvalue_floor, "in (0, 1)");
+  Require(depth_prior_scale_fraction >= 0.0 && depth_prior_scale_fraction <= 1.0,
+          "window.depth_prior_scale_fraction", depth_prior_scale_fraction, "in [0, 1]");
   Require(prior_scale_memory >= 0.0 && prior_scale_memory <= 1.0, "backend.prior_scale_memory",
           prior_scale_memory, "in [0, 1]");
 }
@@ -152,6 +191,9 @@ struct WindowOptimizer::KeyframeState {
   ImageF depth;                      // depth at the BA level (m, 0 invalid)
   double initial_depth_scale = 1.0;  // KeyframeData::initial_depth_scale
   int num_selected = 0;              // points selected when it entered
+  // s_k of WindowOptions::depth_prior_scale_fraction: its points' prior inverse depths are
+  // prior_inverse_depth * exp(log_prior_scale) (0 when the fraction is 1).
+  double log_prior_scale = 0.0;
 };
 
 // One residual block: the cost (marginalisation, the gate's fallback, tests) and, for blocks of
@@ -460,6 +502,17 @@ bool WindowOptimizer::Solve(int max_iterations, double* initial_cost, double* fi
   }
   std::vector<double> depth_buffer(points_.size());
   for (size_t i = 0; i < points_.size(); ++i) depth_buffer[i] = points_[i]->inverse_depth;
+  // Keyframe log scales of the depth prior (depth_prior_scale_fraction < 1), added to the
+  // problem with the first point that uses them.
+  const bool scaled_prior =
+      options_.depth_prior_weight > 0.0 && options_.depth_prior_scale_fraction < 1.0;
+  std::vector<double> scale_buffer(num_kf);
+  std::map<int, size_t> position_of;  // keyframe id -> position in the window
+  for (size_t i = 0; i < num_kf; ++i) {
+    scale_buffer[i] = keyframes_[i]->log_prior_scale;
+    position_of[keyframes_[i]->id] = i;
+  }
+  std::vector<int> prior_points(num_kf, 0);
 
   std::vector<std::unique_ptr<ceres::CostFunction>> owned_costs;
   std::unique_ptr<ceres::LossFunction> prior_loss;
@@ -512,10 +565,28 @@ bool WindowOptimizer::Solve(int max_iterations, double* initial_cost, double* fi
     }
     ordering->AddElementToGroup(depth, 0);
     if (coarse && p->host_id != keyframes_.back()->id) problem.SetParameterBlockConstant(depth);
-    if (options_.depth_prior_weight > 0.0) {
+    if (scaled_prior) {
+      const size_t k = position_of.at(p->host_id);
+      owned_costs.push_back(std::make_unique<ScaledInverseDepthPriorCost>(
+          p->prior_inverse_depth, options_.depth_prior_weight));
+      problem.AddResidualBlock(owned_costs.back().get(), nullptr, depth, &scale_buffer[k]);
+      if (prior_points[k]++ == 0) {
+        ordering->AddElementToGroup(&scale_buffer[k], 1);
+        if (coarse && k + 1 < num_kf) problem.SetParameterBlockConstant(&scale_buffer[k]);
+      }
+    } else if (options_.depth_prior_weight > 0.0) {
       owned_costs.push_back(std::make_unique<InverseDepthPriorCost>(p->prior_inverse_depth,
                                                                     options_.depth_prior_weight));
       problem.AddResidualBlock(owned_costs.back().get(), nullptr, depth);
+    }
+  }
+  if (scaled_prior && options_.depth_prior_scale_fraction > 0.0) {
+    const double f = options_.depth_prior_scale_fraction;
+    for (size_t k = 0; k < num_kf; ++k) {
+      if (prior_points[k] == 0) continue;
+      owned_costs.push_back(std::make_unique<LogScalePriorCost>(
+          f / (1.0 - f) * options_.depth_prior_weight * prior_points[k]));
+      problem.AddResidualBlock(owned_costs.back().get(), nullptr, &scale_buffer[k]);
     }
   }
   if (num_blocks == 0) {
@@ -563,6 +634,7 @@ bool WindowOptimizer::Solve(int max_iterations, double* initial_cost, double* fi
   bool state_finite = true;
   for (double v : pose_buffer) state_finite = state_finite && std::isfinite(v);
   for (double v : depth_buffer) state_finite = state_finite && std::isfinite(v);
+  for (double v : scale_buffer) state_finite = state_finite && std::isfinite(v);
   if (summary.termination_type == ceres::FAILURE || !summary.IsSolutionUsable() ||
       !std::isfinite(summary.final_cost) || !std::isfinite(summary.initial_cost) || !state_finite) {
     std::ostringstream msg;
@@ -577,6 +649,7 @@ bool WindowOptimizer::Solve(int max_iterations, double* initial_cost, double* fi
     std::copy(block, block + kPoseAmbientSize, keyframes_[i]->pose);
   }
   for (size_t i = 0; i < points_.size(); ++i) points_[i]->inverse_depth = depth_buffer[i];
+  for (size_t i = 0; i < num_kf; ++i) keyframes_[i]->log_prior_scale = scale_buffer[i];
   return true;
 }
 
@@ -836,6 +909,8 @@ int WindowOptimizer::ChooseKeyframeToMarginalize() const {
 void WindowOptimizer::MarginalizeKeyframe(int position, WindowResult* result) {
   KeyframeState* leaving = keyframes_[position].get();
   const int leaving_id = leaving->id;
+  const bool scaled_prior =
+      options_.depth_prior_weight > 0.0 && options_.depth_prior_scale_fraction < 1.0;
   auto warn = [result](const std::string& text) {
     if (!result->message.empty()) result->message += "; ";
     result->message += text;
@@ -892,10 +967,19 @@ void WindowOptimizer::MarginalizeKeyframe(int position, WindowResult* result) {
         factors.push_back(std::move(factor));
       }
       if (options_.depth_prior_weight > 0.0) {
-        const double s = std::sqrt(options_.depth_prior_weight) / p->prior_inverse_depth;
         LinearizedFactor factor;
-        factor.residual =
-            Eigen::VectorXd::Constant(1, s * (p->inverse_depth - p->prior_inverse_depth));
+        const double sqrt_w = std::sqrt(options_.depth_prior_weight);
+        double s = sqrt_w / p->prior_inverse_depth;
+        if (scaled_prior) {
+          // ScaledInverseDepthPriorCost with the keyframe's log scale held at its last value.
+          s = sqrt_w / p->inverse_depth;
+          factor.residual = Eigen::VectorXd::Constant(
+              1, sqrt_w * (std::log(p->inverse_depth / p->prior_inverse_depth) -
+                           leaving->log_prior_scale));
+        } else {
+          factor.residual =
+              Eigen::VectorXd::Constant(1, s * (p->inverse_depth - p->prior_inverse_depth));
+        }
         factor.variables = {point_var};
         factor.jacobians = {Eigen::MatrixXd::Constant(1, 1, s)};
         factors.push_back(std::move(factor));

@@ -124,6 +124,16 @@ struct WindowOptions {
   // Weight of the prior pulling each inverse depth toward its keyframe depth, on the relative
   // error (rho - rho0) / rho0; >= 0 (0 = off). Also fixes the scale gauge when > 0.
   double depth_prior_weight = 0.0;
+  // Share of the depth prior's information that concerns each keyframe's overall depth scale,
+  // in [0, 1]. 1: every inverse depth is pulled toward its keyframe's depth as it is (the sum of
+  // the relative errors' squares). Below 1 the prior depths of each keyframe share a free scale
+  // exp(s_k), rho -> rho0 exp(s_k), and s_k has its own prior sqrt(W_k) s_k with W_k = f / (1 - f)
+  // w N_k (N_k: the keyframe's points in the solve), so that after eliminating s_k the prior on
+  // the keyframe's mean log depth keeps the fraction f of its weight w N_k while the shape part
+  // (the deviations from the mean) keeps all of it. 0: shape only, the scale is left to the
+  // geometry. A marginalised keyframe's points keep their prior toward rho0 exp(s_k) at its last
+  // s_k.
+  double depth_prior_scale_fraction = 1.0;
   // Weight of the prior pulling the relative pose of consecutive window keyframes toward the
   // frontend's, on [2 vec(q_err) (rad); t_err (m)]; >= 0 (0 = off).
   double pose_prior_weight = 0.0;

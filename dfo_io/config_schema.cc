@@ -309,6 +309,14 @@ ConfigSchema BuildSchema() {
               "Weight of the prior of each inverse depth toward its keyframe's depth (relative "
               "error); 0 = off")
       .Min(0);
+  s.AddDouble("window.depth_prior_scale_fraction", 1.0,
+              "Share of the depth prior's weight on each keyframe's overall depth scale: 1 = "
+              "every inverse depth toward its keyframe's depth as it is; below 1 each keyframe's "
+              "prior depths share a free scale factor whose own prior keeps this fraction of the "
+              "scale information (0 = the prior constrains only the shape of each keyframe's "
+              "depth, the scale comes from the geometry)")
+      .Min(0)
+      .Max(1);
   s.AddDouble("window.pose_prior_weight", 0.0,
               "Weight of the prior of consecutive keyframes' relative pose toward the "
               "frontend's; 0 = off")

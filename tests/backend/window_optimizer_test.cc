@@ -88,6 +88,17 @@ WindowOptions TestOptions() {
   return options;
 }
 
+// TestOptions for a window of 5 keyframes with a depth prior.
+WindowOptions DepthPriorWindowOptions(int points_per_keyframe, int max_iterations,
+                                      double depth_prior_weight) {
+  WindowOptions options = TestOptions();
+  options.max_keyframes = 5;
+  options.points_per_keyframe = points_per_keyframe;
+  options.max_iterations = max_iterations;
+  options.depth_prior_weight = depth_prior_weight;
+  return options;
+}
+
 // The gauge of a marginalisation prior at its linearisation point, in its tangent coordinates
 // (left perturbations of world_from_cam): a common [upsilon; omega] for all poses (6 columns)
 // and the scale, upsilon_i = t_i (7th), as the window projects them out.
@@ -265,11 +276,7 @@ TEST(WindowOptimizerTest, PriorScaleMemoryKeepsTheScaleInformationOfADepthPrior)
   double scale_information[2] = {0.0, 0.0};
   int rank[2] = {0, 0};
   for (int keep = 0; keep < 2; ++keep) {
-    WindowOptions options = TestOptions();
-    options.max_keyframes = 5;
-    options.points_per_keyframe = 60;
-    options.max_iterations = 3;
-    options.depth_prior_weight = 1.0;
+    WindowOptions options = DepthPriorWindowOptions(60, 3, 1.0);
     options.prior_scale_memory = keep;
     // The scale information is about 1e-10 of the prior's largest eigenvalue here (numerical
     // noise: about 1e-16 of it); the default floor, 1e-8, would drop it.
@@ -296,6 +303,55 @@ TEST(WindowOptimizerTest, PriorScaleMemoryKeepsTheScaleInformationOfADepthPrior)
   EXPECT_LT(std::abs(scale_information[0]), 1e-15);
   EXPECT_GT(scale_information[1], 1e-11);
   EXPECT_EQ(rank[1], rank[0] + 1);
+}
+
+// A monocular network gives each image its own scale. With the whole depth prior on each
+// keyframe's scale (window.depth_prior_scale_fraction 1) the keyframes' steps follow their depth
+// maps' scales; with a small fraction each keyframe's prior depths share a free scale, the prior
+// keeps their shape, and the parallax between keyframes sets the scale.
+TEST(WindowOptimizerTest, DepthPriorScaleFractionLetsTheGeometrySetEachKeyframesScale) {
+  double spread[2] = {0.0, 0.0};
+  const double fractions[2] = {1.0, 0.02};
+  for (int run = 0; run < 2; ++run) {
+    WindowOptions options = DepthPriorWindowOptions(80, 4, 2.0);
+    options.coarse_iterations = 0;
+    options.depth_prior_scale_fraction = fractions[run];
+    // The keyframes' poses are the truth here, so the depth search can be trusted (TestOptions
+    // turns it off for the perturbed windows of the basin tests).
+    options.depth_search_range = 2.0;
+    WindowOptimizer window(options);
+    std::vector<std::pair<int, SE3d>> poses;  // each keyframe's pose when it was newest but one
+    for (int k = 0; k < 9; ++k) {
+      KeyframeData kf = test::MakeSyntheticKeyframe(Sequence(), 3 * k, 2);
+      // Depth maps alternately 20 % too near and 25 % too far (the first keeps the truth).
+      const float factor = k == 0 ? 1.0f : (k % 2 ? 0.8f : 1.25f);
+      for (ImageF& level : kf.depth.levels) {
+        for (float& d : level.vector()) d *= factor;
+      }
+      const WindowResult r = window.AddKeyframe(std::move(kf));
+      ASSERT_TRUE(k == 0 || r.optimized) << r.message;
+      if (k >= 2) poses.push_back(r.keyframe_poses[r.keyframe_poses.size() - 2]);
+    }
+    // Spread of the step lengths over the truth's.
+    std::vector<double> ratios;
+    for (size_t i = 1; i < poses.size(); ++i) {
+      const double est = (poses[i].second.translation() - poses[i - 1].second.translation()).norm();
+      const double gt = (Sequence().WorldFromCam(poses[i].first).translation() -
+                         Sequence().WorldFromCam(poses[i - 1].first).translation())
+                            .norm();
+      ratios.push_back(est / gt);
+    }
+    double mean = 0.0, sq = 0.0;
+    for (double r : ratios) mean += r / ratios.size();
+    for (double r : ratios) sq += (r - mean) * (r - mean) / ratios.size();
+    spread[run] = std::sqrt(sq) / mean;
+  }
+  std::printf(
+      "[ figures  ] per-keyframe depth scales 0.8 / 1.25: step-length ratio cv %.3f with the "
+      "prior's fraction on the scale 1, %.3f with 0.02\n",
+      spread[0], spread[1]);
+  EXPECT_GT(spread[0], 0.05);
+  EXPECT_LT(spread[1], 0.5 * spread[0]);
 }
 
 TEST(WindowOptimizerTest, MarginalizationOffOnlyDrops) {
@@ -592,6 +648,9 @@ TEST(WindowOptionsTest, CheckNamesTheKey) {
   o = WindowOptions();
   o.max_patch_stretch = 1.0;
   EXPECT_EQ(message(o), "window.max_patch_stretch = 1 violates > 1");
+  o = WindowOptions();
+  o.depth_prior_scale_fraction = 1.5;
+  EXPECT_EQ(message(o), "window.depth_prior_scale_fraction = 1.5 violates in [0, 1]");
   o = WindowOptions();
   o.max_depth_edge_slope = -1.0;
   EXPECT_EQ(message(o), "window.max_depth_edge_slope = -1 violates >= 0");
