@@ -50,6 +50,8 @@ options:
   --level L              WindowOptions::pyramid_level (default 0)
   --patch K              WindowOptions::patch_size (default: the option's default)
   --max-stretch S        WindowOptions::max_patch_stretch (default: the option's default)
+  --patch-depth-shape    WindowOptions::patch_depth_shape = true (patches warped as the depth
+                         map's surface, not fronto-parallel)
   --descriptor NAME      hand-made features: intensity, intensity_gradients (default) or rich
   --blur S               hand-made features: blur_sigma_px (default 1)
   --perturbation F       scale of the keyframe pose perturbation (default 1: 1 cm and 0.1 deg
@@ -117,6 +119,8 @@ Args Parse(int argc, char** argv) {
       args.window.patch_size = ParseInt(flag, next());
     } else if (flag == "--max-stretch") {
       args.window.max_patch_stretch = std::atof(next());
+    } else if (flag == "--patch-depth-shape") {
+      args.window.patch_depth_shape = true;
     } else if (flag == "--descriptor") {
       args.features.descriptor = next();
     } else if (flag == "--blur") {

@@ -60,8 +60,12 @@ bool SampleHostPatchBilinear(const FeatureLevel& level, const Eigen::Vector2d& u
 
 FeatureMetricCost::FeatureMetricCost(const FeatureLevel* target, const PinholeCamera& host_camera,
                                      const Eigen::Vector2d& host_uv, int patch_size,
-                                     std::shared_ptr<const std::vector<double>> host_patch) {
+                                     std::shared_ptr<const std::vector<double>> host_patch,
+                                     std::shared_ptr<const std::vector<double>> depth_shape) {
   DFO_CHECK(target != nullptr && host_patch != nullptr);
+  DFO_CHECK(depth_shape == nullptr ||
+            depth_shape->size() == static_cast<size_t>(patch_size) * patch_size)
+      << "depth shape of " << depth_shape->size() << " values for K = " << patch_size;
   DFO_CHECK(patch_size >= 1 && patch_size % 2 == 1) << "patch_size " << patch_size;
   DFO_CHECK(target->width >= 2 && target->height >= 2) << target->width << "x" << target->height;
   DFO_CHECK(host_patch->size() == static_cast<size_t>(target->channels) * patch_size * patch_size)
@@ -76,6 +80,10 @@ FeatureMetricCost::FeatureMetricCost(const FeatureLevel* target, const PinholeCa
   block_.ray_step_x = 1.0 / host_camera.fx;
   block_.ray_step_y = 1.0 / host_camera.fy;
   block_.patch_size = patch_size;
+  if (depth_shape) {
+    block_.depth_shape = depth_shape->data();
+    block_.depth_shape_owner = std::move(depth_shape);
+  }
 }
 
 namespace {

@@ -6,6 +6,8 @@
 // pixel u_k = u + o_k is back-projected with the SAME inverse depth, moved into the target
 // keyframe t and projected (each patch pixel is warped exactly, DSO's pattern):
 //   X_h   = ray(u_k) / rho,                   ray(u) = ((u - c) / f, 1)
+// (with a depth shape, ray(u_k) is multiplied by the fixed factor d_k / d_0 of the host depth
+// map; the formulas below hold with that scaled ray)
 //   p_k   = pi(T_t^-1 T_h X_h),               T = world_from_cam of the keyframe
 //   r_ck  = F_h(c, u_k) - F_t(c, p_k)         c = 0..C-1, F_t bilinearly interpolated
 // giving C x K x K residuals, index c * K * K + k, k = (dy + K/2) * K + (dx + K/2).
@@ -65,12 +67,19 @@ struct FeatureMetricBlock {
   Eigen::Vector3d center_ray = Eigen::Vector3d::Zero();  // host ray through the patch centre
   double ray_step_x = 0.0, ray_step_y = 0.0;  // ray change per pixel step: 1 / fx, 1 / fy
   int patch_size = 1;
+  // Optional K * K factors d_k / d_0 of the patch pixels' depths over the centre's (the host
+  // depth map's local shape); null: one depth for the whole patch (fronto-parallel).
+  const double* depth_shape = nullptr;
+  std::shared_ptr<const std::vector<double>> depth_shape_owner;
 
-  // Host ray of patch pixel k = (dy + K/2) K + (dx + K/2).
+  // Host ray of patch pixel k = (dy + K/2) K + (dx + K/2), scaled by its depth factor: the
+  // pixel's point is Ray(k) / inverse_depth.
   Eigen::Vector3d Ray(int k) const {
     const int radius = patch_size / 2;
-    return center_ray + Eigen::Vector3d((k % patch_size - radius) * ray_step_x,
-                                        (k / patch_size - radius) * ray_step_y, 0.0);
+    const Eigen::Vector3d ray = center_ray + Eigen::Vector3d((k % patch_size - radius) * ray_step_x,
+                                                             (k / patch_size - radius) * ray_step_y,
+                                                             0.0);
+    return depth_shape ? Eigen::Vector3d(ray * depth_shape[k]) : ray;
   }
   // See FeatureMetricCost: residuals and tangent (ambient = false) or ambient Jacobians.
   bool Evaluate(const double* host_pose, const double* target_pose, double inverse_depth,
@@ -96,9 +105,14 @@ class FeatureMetricCost : public ceres::CostFunction {
   // host_camera: intrinsics of the host's BA level (to back-project); host_uv: integer pixel
   // of the patch centre in the host; patch_size: K (odd, >= 1); host_patch: SampleHostPatch of
   // the host at host_uv (shared by all blocks of the point), size target.channels * K * K.
+  // depth_shape: null, or K * K factors d_k / d_0 (> 0) of each patch pixel's depth over the
+  // centre's: pixel k is back-projected at depth d_k / d_0 / rho instead of 1 / rho, so that a
+  // patch on a slanted surface (the road, a wall seen at a grazing angle) is warped as that
+  // surface rather than as a fronto-parallel one (WindowOptions::patch_depth_shape).
   FeatureMetricCost(const FeatureLevel* target, const PinholeCamera& host_camera,
                     const Eigen::Vector2d& host_uv, int patch_size,
-                    std::shared_ptr<const std::vector<double>> host_patch);
+                    std::shared_ptr<const std::vector<double>> host_patch,
+                    std::shared_ptr<const std::vector<double>> depth_shape = nullptr);
 
   // ceres::CostFunction: ambient Jacobians (J_tangent * PoseMinusJacobian for the poses).
   bool Evaluate(double const* const* parameters, double* residuals,

@@ -32,6 +32,24 @@ double MsSince(std::chrono::steady_clock::time_point start) {
       .count();
 }
 
+// The K x K factors d(x + dx, y + dy) / d(x, y) of a patch's depths over its centre's
+// (FeatureMetricCost's depth shape), clamped to [1/2, 2]; 1 where a depth is not valid.
+std::vector<double> PatchDepthShape(const ImageF& depth, int x, int y, int patch_size) {
+  const int radius = patch_size / 2;
+  std::vector<double> shape(static_cast<size_t>(patch_size) * patch_size, 1.0);
+  const double d0 = depth(x, y);
+  if (!(d0 > 0.0) || !std::isfinite(d0)) return shape;
+  for (int dy = -radius; dy <= radius; ++dy) {
+    for (int dx = -radius; dx <= radius; ++dx) {
+      const double d = depth(x + dx, y + dy);
+      if (d > 0.0 && std::isfinite(d)) {
+        shape[(dy + radius) * patch_size + (dx + radius)] = std::clamp(d / d0, 0.5, 2.0);
+      }
+    }
+  }
+  return shape;
+}
+
 // Prior r = sqrt(w) (rho - rho0) / rho0 on one inverse depth (D3VO-style depth prior, relative so
 // that its weight does not depend on the scene's scale).
 class InverseDepthPriorCost : public ceres::SizedCostFunction<1, 1> {
@@ -211,6 +229,8 @@ struct WindowOptimizer::PointState {
   double inverse_depth = 0.0;
   double prior_inverse_depth = 0.0;  // from the keyframe's depth
   std::shared_ptr<const std::vector<double>> patch;
+  // FeatureMetricCost's depth shape (WindowOptions::patch_depth_shape); null: fronto-parallel.
+  std::shared_ptr<const std::vector<double>> depth_shape;
   // Host patch on the coarse level, centred where (x, y) lands there; null when coarse solves are
   // off or the patch leaves the coarse level (the point then sits the warm-up out).
   std::shared_ptr<const std::vector<double>> coarse_patch;
@@ -362,6 +382,10 @@ double WindowOptimizer::SelectPoints(KeyframeState* kf) {
         std::max(1.0 / (kf->depth(c.x, c.y) * kf->initial_depth_scale), options_.min_inverse_depth);
     p->patch = std::make_shared<const std::vector<double>>(
         SampleHostPatch(f, c.x, c.y, options_.patch_size));
+    if (options_.patch_depth_shape) {
+      p->depth_shape = std::make_shared<const std::vector<double>>(
+          PatchDepthShape(kf->depth, c.x, c.y, options_.patch_size));
+    }
     if (options_.coarse_iterations > 0) {
       std::vector<double> coarse_patch;
       if (SampleHostPatchBilinear(kf->coarse, CoarsePixel(c.x, c.y), options_.patch_size,
@@ -384,7 +408,8 @@ void WindowOptimizer::ConnectNewKeyframe(KeyframeState* new_kf) {
     const Eigen::Vector2d uv(p->x, p->y);
     auto try_add = [&](KeyframeState* target) {
       auto cost = std::make_unique<FeatureMetricCost>(&target->level, host->level.camera, uv,
-                                                      options_.patch_size, p->patch);
+                                                      options_.patch_size, p->patch,
+                                                      p->depth_shape);
       const Eigen::Vector2d stretch = cost->WarpStretch(host->pose, target->pose, p->inverse_depth);
       if (!(stretch(0) <= max_stretch && stretch(1) >= 1.0 / max_stretch)) return;
       if (cost->NumVisible(host->pose, target->pose, p->inverse_depth) == full) {

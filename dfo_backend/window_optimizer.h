@@ -101,6 +101,11 @@ struct WindowOptions {
   // accurate with learned depth as 300 (1-3%), 24-25% worse with true depth, half the BA time
   // (docs/window.md).
   int points_per_keyframe = 150;
+  // Warp each point's patch as the surface of its keyframe's depth map (every patch pixel at the
+  // map's depth relative to the centre's, scaled with the point's inverse depth) instead of as a
+  // fronto-parallel plane at the centre's depth; factors outside [1/2, 2] or at invalid depths
+  // are clamped or set to 1.
+  bool patch_depth_shape = false;
   // Robust loss on each block: "huber" or "cauchy".
   std::string loss = "huber";
   // Scale of the loss per feature value: the Ceres loss parameter is loss_scale * sqrt(C K^2),

@@ -309,6 +309,9 @@ ConfigSchema BuildSchema() {
               "Weight of the prior of each inverse depth toward its keyframe's depth (relative "
               "error); 0 = off")
       .Min(0);
+  s.AddBool("window.patch_depth_shape", false,
+            "Warp each point's patch as the surface of its keyframe's depth map (every patch pixel "
+            "at the map's depth relative to the centre's) instead of as a fronto-parallel plane");
   s.AddDouble("window.depth_prior_scale_fraction", 1.0,
               "Share of the depth prior's weight on each keyframe's overall depth scale: 1 = "
               "every inverse depth toward its keyframe's depth as it is; below 1 each keyframe's "

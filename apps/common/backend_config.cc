@@ -46,6 +46,7 @@ WindowOptions WindowOptionsFromConfig(const io::Config& config) {
   o.min_inverse_depth = config.GetDouble("window.min_inverse_depth");
   o.depth_prior_weight = config.GetDouble("window.depth_prior_weight");
   o.depth_prior_scale_fraction = config.GetDouble("window.depth_prior_scale_fraction");
+  o.patch_depth_shape = config.GetBool("window.patch_depth_shape");
   o.pose_prior_weight = config.GetDouble("window.pose_prior_weight");
   o.outlier_gate_percentile = config.GetDouble("window.outlier_gate_percentile");
   o.outlier_gate_factor = config.GetDouble("window.outlier_gate_factor");
