@@ -52,6 +52,7 @@ options:
   --max-stretch S        WindowOptions::max_patch_stretch (default: the option's default)
   --patch-depth-shape    WindowOptions::patch_depth_shape = true (patches warped as the depth
                          map's surface, not fronto-parallel)
+  --zoom-blur S          WindowOptions::zoom_blur_sigma_px (default 0; the features' blur: --blur)
   --descriptor NAME      hand-made features: intensity, intensity_gradients (default) or rich
   --blur S               hand-made features: blur_sigma_px (default 1)
   --perturbation F       scale of the keyframe pose perturbation (default 1: 1 cm and 0.1 deg
@@ -119,6 +120,8 @@ Args Parse(int argc, char** argv) {
       args.window.patch_size = ParseInt(flag, next());
     } else if (flag == "--max-stretch") {
       args.window.max_patch_stretch = std::atof(next());
+    } else if (flag == "--zoom-blur") {
+      args.window.zoom_blur_sigma_px = std::atof(next());
     } else if (flag == "--patch-depth-shape") {
       args.window.patch_depth_shape = true;
     } else if (flag == "--descriptor") {

@@ -32,6 +32,64 @@ double MsSince(std::chrono::steady_clock::time_point start) {
       .count();
 }
 
+// Every channel of `level` blurred by a Gaussian of `sigma` px (separable, radius 3 sigma,
+// borders clamped).
+FeatureLevel BlurFeatureLevel(const FeatureLevel& level, double sigma) {
+  FeatureLevel out = level;
+  const int radius = std::max(1, static_cast<int>(std::ceil(3.0 * sigma)));
+  std::vector<float> kernel(2 * radius + 1);
+  float sum = 0.0f;
+  for (int i = -radius; i <= radius; ++i) {
+    kernel[i + radius] = static_cast<float>(std::exp(-0.5 * i * i / (sigma * sigma)));
+    sum += kernel[i + radius];
+  }
+  for (float& k : kernel) k /= sum;
+  const int w = level.width, h = level.height;
+  std::vector<float> tmp(static_cast<size_t>(w) * h);
+  for (int c = 0; c < level.channels; ++c) {
+    const float* src = level.Channel(c);
+    float* dst = out.Channel(c);
+    for (int y = 0; y < h; ++y) {
+      for (int x = 0; x < w; ++x) {
+        float v = 0.0f;
+        for (int i = -radius; i <= radius; ++i) {
+          v += kernel[i + radius] * src[y * w + std::clamp(x + i, 0, w - 1)];
+        }
+        tmp[y * w + x] = v;
+      }
+    }
+    for (int y = 0; y < h; ++y) {
+      for (int x = 0; x < w; ++x) {
+        float v = 0.0f;
+        for (int i = -radius; i <= radius; ++i) {
+          v += kernel[i + radius] * tmp[std::clamp(y + i, 0, h - 1) * w + x];
+        }
+        dst[y * w + x] = v;
+      }
+    }
+  }
+  return out;
+}
+
+// Zooms whose blurred features a keyframe keeps (WindowOptions::zoom_blur_sigma_px): 1.1, 1.2,
+// ... up to max_stretch.
+std::vector<double> ZoomLadder(double max_stretch) {
+  std::vector<double> zooms;
+  for (int i = 1; 1.0 + 0.1 * i <= max_stretch + 1e-9 && i <= 30; ++i) {
+    zooms.push_back(1.0 + 0.1 * i);
+  }
+  return zooms;
+}
+
+// Index in ZoomLadder of the largest zoom not above `zoom`; -1 below the first.
+int ZoomIndex(const std::vector<double>& zooms, double zoom) {
+  int index = -1;
+  for (size_t i = 0; i < zooms.size(); ++i) {
+    if (zooms[i] <= zoom + 1e-9) index = static_cast<int>(i);
+  }
+  return index;
+}
+
 // The K x K factors d(x + dx, y + dy) / d(x, y) of a patch's depths over its centre's
 // (FeatureMetricCost's depth shape), clamped to [1/2, 2]; 1 where a depth is not valid.
 std::vector<double> PatchDepthShape(const ImageF& depth, int x, int y, int patch_size) {
@@ -192,6 +250,9 @@ void WindowOptions::Check() const {
           "in (0, 1]");
   Require(relative_eigenvalue_floor > 0.0 && relative_eigenvalue_floor < 1.0,
           "backend.relative_eigenvalue_floor", relative_eigenvalue_floor, "in (0, 1)");
+  Require(std::isfinite(zoom_blur_sigma_px) && zoom_blur_sigma_px >= 0.0 &&
+              zoom_blur_sigma_px <= 10.0,
+          "window.zoom_blur_sigma_px", zoom_blur_sigma_px, "in [0, 10]");
   Require(depth_prior_scale_fraction >= 0.0 && depth_prior_scale_fraction <= 1.0,
           "window.depth_prior_scale_fraction", depth_prior_scale_fraction, "in [0, 1]");
   Require(prior_scale_memory >= 0.0 && prior_scale_memory <= 1.0, "backend.prior_scale_memory",
@@ -212,6 +273,9 @@ struct WindowOptimizer::KeyframeState {
   // s_k of WindowOptions::depth_prior_scale_fraction: its points' prior inverse depths are
   // prior_inverse_depth * exp(log_prior_scale) (0 when the fraction is 1).
   double log_prior_scale = 0.0;
+  // WindowOptions::zoom_blur_sigma_px: `level` blurred for the zooms of ZoomLadder (index i:
+  // zoom ZoomLadder()[i]); empty when off.
+  std::vector<FeatureLevel> zoom_blurred;
 };
 
 // One residual block: the cost (marginalisation, the gate's fallback, tests) and, for blocks of
@@ -403,6 +467,9 @@ double WindowOptimizer::SelectPoints(KeyframeState* kf) {
 void WindowOptimizer::ConnectNewKeyframe(KeyframeState* new_kf) {
   const int full = options_.patch_size * options_.patch_size;
   const double max_stretch = options_.max_patch_stretch;
+  const std::vector<double> zooms = options_.zoom_blur_sigma_px > 0.0
+                                        ? ZoomLadder(options_.max_patch_stretch)
+                                        : std::vector<double>();
   for (auto& p : points_) {
     KeyframeState* host = FindKeyframe(p->host_id);
     const Eigen::Vector2d uv(p->x, p->y);
@@ -412,6 +479,21 @@ void WindowOptimizer::ConnectNewKeyframe(KeyframeState* new_kf) {
                                                       p->depth_shape);
       const Eigen::Vector2d stretch = cost->WarpStretch(host->pose, target->pose, p->inverse_depth);
       if (!(stretch(0) <= max_stretch && stretch(1) >= 1.0 / max_stretch)) return;
+      if (!zooms.empty()) {
+        // The same surface blur on both sides: the zoomed-in side's features blurred more.
+        const double zoom = std::sqrt(stretch(0) * stretch(1));
+        const int t = ZoomIndex(zooms, zoom), h = ZoomIndex(zooms, 1.0 / zoom);
+        if (t >= 0 || h >= 0) {
+          auto patch = p->patch;
+          if (h >= 0) {
+            patch = std::make_shared<const std::vector<double>>(
+                SampleHostPatch(host->zoom_blurred[h], p->x, p->y, options_.patch_size));
+          }
+          cost = std::make_unique<FeatureMetricCost>(
+              t >= 0 ? &target->zoom_blurred[t] : &target->level, host->level.camera, uv,
+              options_.patch_size, patch, p->depth_shape);
+        }
+      }
       if (cost->NumVisible(host->pose, target->pose, p->inverse_depth) == full) {
         Block& block = p->residuals[target->id];
         if (cost->num_residuals() > CompressedFeatureMetricCost::kNumResiduals) {
@@ -838,6 +920,12 @@ WindowResult WindowOptimizer::AddKeyframe(KeyframeData data) {
   }
   if (options_.coarse_iterations > 0) kf->coarse = std::move(data.features.levels[level + 1]);
   kf->level = std::move(f);
+  if (options_.zoom_blur_sigma_px > 0.0) {
+    for (double zoom : ZoomLadder(options_.max_patch_stretch)) {
+      kf->zoom_blurred.push_back(
+          BlurFeatureLevel(kf->level, options_.zoom_blur_sigma_px * std::sqrt(zoom * zoom - 1.0)));
+    }
+  }
   kf->depth = d;
   kf->initial_depth_scale = data.initial_depth_scale;
   KeyframeState* new_kf = kf.get();

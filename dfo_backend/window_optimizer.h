@@ -106,6 +106,13 @@ struct WindowOptions {
   // fronto-parallel plane at the centre's depth; factors outside [1/2, 2] or at invalid depths
   // are clamped or set to 1.
   bool patch_depth_shape = false;
+  // Blur, in pixels, that the features already carry (the hand-made features' blur_sigma_px),
+  // for comparing a patch seen at two scales at the same blur on the surface: where the target
+  // sees a patch zoomed by s > 1 (the geometric mean of WarpStretch when the block is made), the
+  // block samples the target's features blurred by a further zoom_blur_sigma_px sqrt(s^2 - 1)
+  // (from a ladder of zooms 1.1, 1.2, ... up to max_patch_stretch, the nearest below s); where
+  // s < 1 the host patch is sampled from the host blurred likewise for 1 / s. 0 = off.
+  double zoom_blur_sigma_px = 0.0;
   // Robust loss on each block: "huber" or "cauchy".
   std::string loss = "huber";
   // Scale of the loss per feature value: the Ceres loss parameter is loss_scale * sqrt(C K^2),

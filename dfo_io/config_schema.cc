@@ -309,6 +309,13 @@ ConfigSchema BuildSchema() {
               "Weight of the prior of each inverse depth toward its keyframe's depth (relative "
               "error); 0 = off")
       .Min(0);
+  s.AddDouble("window.zoom_blur_sigma_px", 0.0,
+              "Blur in px the features already carry (the hand-made features' blur_sigma_px): "
+              "where a block's target sees the patch zoomed by s, its features are compared "
+              "blurred by a further this x sqrt(s^2 - 1) (the host's for 1 / s), so that both "
+              "sides have the same blur on the surface; 0 = off")
+      .Min(0)
+      .Max(10);
   s.AddBool("window.patch_depth_shape", false,
             "Warp each point's patch as the surface of its keyframe's depth map (every patch pixel "
             "at the map's depth relative to the centre's) instead of as a fronto-parallel plane");
