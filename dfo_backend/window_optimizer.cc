@@ -32,45 +32,6 @@ double MsSince(std::chrono::steady_clock::time_point start) {
       .count();
 }
 
-// Every channel of `level` blurred by a Gaussian of `sigma` px (separable, radius 3 sigma,
-// borders clamped).
-FeatureLevel BlurFeatureLevel(const FeatureLevel& level, double sigma) {
-  FeatureLevel out = level;
-  const int radius = std::max(1, static_cast<int>(std::ceil(3.0 * sigma)));
-  std::vector<float> kernel(2 * radius + 1);
-  float sum = 0.0f;
-  for (int i = -radius; i <= radius; ++i) {
-    kernel[i + radius] = static_cast<float>(std::exp(-0.5 * i * i / (sigma * sigma)));
-    sum += kernel[i + radius];
-  }
-  for (float& k : kernel) k /= sum;
-  const int w = level.width, h = level.height;
-  std::vector<float> tmp(static_cast<size_t>(w) * h);
-  for (int c = 0; c < level.channels; ++c) {
-    const float* src = level.Channel(c);
-    float* dst = out.Channel(c);
-    for (int y = 0; y < h; ++y) {
-      for (int x = 0; x < w; ++x) {
-        float v = 0.0f;
-        for (int i = -radius; i <= radius; ++i) {
-          v += kernel[i + radius] * src[y * w + std::clamp(x + i, 0, w - 1)];
-        }
-        tmp[y * w + x] = v;
-      }
-    }
-    for (int y = 0; y < h; ++y) {
-      for (int x = 0; x < w; ++x) {
-        float v = 0.0f;
-        for (int i = -radius; i <= radius; ++i) {
-          v += kernel[i + radius] * tmp[std::clamp(y + i, 0, h - 1) * w + x];
-        }
-        dst[y * w + x] = v;
-      }
-    }
-  }
-  return out;
-}
-
 // Zooms whose blurred features a keyframe keeps (WindowOptions::zoom_blur_sigma_px): 1.1, 1.2,
 // ... up to max_stretch.
 std::vector<double> ZoomLadder(double max_stretch) {
@@ -923,7 +884,7 @@ WindowResult WindowOptimizer::AddKeyframe(KeyframeData data) {
   if (options_.zoom_blur_sigma_px > 0.0) {
     for (double zoom : ZoomLadder(options_.max_patch_stretch)) {
       kf->zoom_blurred.push_back(
-          BlurFeatureLevel(kf->level, options_.zoom_blur_sigma_px * std::sqrt(zoom * zoom - 1.0)));
+          GaussianBlur(kf->level, options_.zoom_blur_sigma_px * std::sqrt(zoom * zoom - 1.0)));
     }
   }
   kf->depth = d;

@@ -1,8 +1,10 @@
 #include "dfo_core/feature_map.h"
 
+#include <algorithm>
 #include <cmath>
 
 #include "dfo_core/error.h"
+#include "dfo_core/image_pyramid.h"
 
 namespace dfo {
 
@@ -55,6 +57,18 @@ int DepthPyramid::NumValid(int l) const {
   int n = 0;
   for (float d : levels[l].vector()) n += d > 0.0f ? 1 : 0;
   return n;
+}
+
+FeatureLevel GaussianBlur(const FeatureLevel& level, double sigma) {
+  FeatureLevel out = level;
+  const size_t n = static_cast<size_t>(level.width) * level.height;
+  ImageF channel(level.width, level.height);
+  for (int c = 0; c < level.channels; ++c) {
+    std::copy(level.Channel(c), level.Channel(c) + n, channel.vector().begin());
+    const ImageF blurred = GaussianBlur(channel, sigma);
+    std::copy(blurred.vector().begin(), blurred.vector().end(), out.Channel(c));
+  }
+  return out;
 }
 
 }  // namespace dfo

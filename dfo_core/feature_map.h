@@ -51,6 +51,10 @@ struct FeatureLevel {
   void ZScore();
 };
 
+// Every channel of `level` blurred by dfo_core's separable Gaussian (GaussianBlur of
+// image_pyramid.h: clamped borders, radius ceil(3 sigma)); sigma > 0. Camera and mask are kept.
+FeatureLevel GaussianBlur(const FeatureLevel& level, double sigma);
+
 // The levels of one frame's features, finest first.
 struct FeaturePyramid {
   std::vector<FeatureLevel> levels;

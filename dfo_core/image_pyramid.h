@@ -31,6 +31,10 @@ struct ImagePyramidOptions {
 // mapping as PinholeCamera::PyramidLevel(1). Throws InputError when the image is smaller than 2x2.
 ImageF DownsampleHalf(const ImageF& image);
 
+// Separable Gaussian blur of a one-channel image with clamped borders, kernel radius
+// ceil(3 sigma); sigma > 0.
+ImageF GaussianBlur(const ImageF& image, double sigma);
+
 // Horizontal and vertical derivatives of an image, same size and channel count as it, in
 // intensity per pixel.
 struct ImageGradients {

@@ -48,42 +48,6 @@ ImageF ToGray(const ImageU8& image, int frame_index) {
   return gray;
 }
 
-// Separable Gaussian blur with clamped borders, radius ceil(3 sigma).
-ImageF GaussianBlur(const ImageF& image, double sigma) {
-  const int radius = static_cast<int>(std::ceil(3.0 * sigma));
-  std::vector<float> kernel(2 * radius + 1);
-  double total = 0.0;
-  for (int k = -radius; k <= radius; ++k) {
-    const double w = std::exp(-0.5 * k * k / (sigma * sigma));
-    kernel[k + radius] = static_cast<float>(w);
-    total += w;
-  }
-  for (float& w : kernel) w = static_cast<float>(w / total);
-  const int w = image.width(), h = image.height();
-  ImageF tmp(w, h), out(w, h);
-  for (int y = 0; y < h; ++y) {
-    for (int x = 0; x < w; ++x) {
-      float s = 0.0f;
-      for (int k = -radius; k <= radius; ++k) {
-        const int xx = std::min(std::max(x + k, 0), w - 1);
-        s += kernel[k + radius] * image(xx, y);
-      }
-      tmp(x, y) = s;
-    }
-  }
-  for (int y = 0; y < h; ++y) {
-    for (int x = 0; x < w; ++x) {
-      float s = 0.0f;
-      for (int k = -radius; k <= radius; ++k) {
-        const int yy = std::min(std::max(y + k, 0), h - 1);
-        s += kernel[k + radius] * tmp(x, yy);
-      }
-      out(x, y) = s;
-    }
-  }
-  return out;
-}
-
 // 3x3 box mean with clamped borders.
 ImageF BoxBlur3(const ImageF& image) {
   const int w = image.width(), h = image.height();

@@ -67,40 +67,6 @@ inline FeatureLevel GrayFeatures(const ImageF& g, const PinholeCamera& camera) {
   return level;
 }
 
-// Every channel of `level` blurred by a Gaussian of `sigma` px (separable, radius 3 sigma,
-// borders clamped), as the hand-made features' blur_sigma_px blurs the image.
-inline FeatureLevel Blurred(const FeatureLevel& level, double sigma) {
-  const int radius = static_cast<int>(std::ceil(3.0 * sigma));
-  std::vector<double> kernel(2 * radius + 1);
-  double sum = 0.0;
-  for (int i = -radius; i <= radius; ++i) {
-    kernel[i + radius] = std::exp(-0.5 * i * i / (sigma * sigma));
-    sum += kernel[i + radius];
-  }
-  FeatureLevel out = level;
-  const int w = level.width, h = level.height;
-  for (int c = 0; c < level.channels; ++c) {
-    std::vector<double> tmp(static_cast<size_t>(w) * h, 0.0);
-    for (int y = 0; y < h; ++y) {
-      for (int x = 0; x < w; ++x) {
-        for (int i = -radius; i <= radius; ++i) {
-          tmp[y * w + x] += kernel[i + radius] / sum * level.At(c, std::clamp(x + i, 0, w - 1), y);
-        }
-      }
-    }
-    for (int y = 0; y < h; ++y) {
-      for (int x = 0; x < w; ++x) {
-        double v = 0.0;
-        for (int i = -radius; i <= radius; ++i) {
-          v += kernel[i + radius] / sum * tmp[std::clamp(y + i, 0, h - 1) * w + x];
-        }
-        out.Channel(c)[y * w + x] = static_cast<float>(v);
-      }
-    }
-  }
-  return out;
-}
-
 // Keyframe of synthetic frame `index` (num_levels levels, pose = ground truth). With
 // depth_noise > 0 every depth is multiplied by exp(N(0, depth_noise)) (seeded by the index).
 inline KeyframeData MakeSyntheticKeyframe(const SyntheticSequence& sequence, int index,

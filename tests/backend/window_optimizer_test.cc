@@ -369,7 +369,7 @@ TEST(WindowOptimizerTest, ZoomMatchedBlurKeepsTheOptimumCloserToTheTruth) {
     std::vector<double> errors;
     for (int k = 0; k < 12; ++k) {
       KeyframeData kf = test::MakeSyntheticKeyframe(Sequence(), 3 * k, 2);
-      for (FeatureLevel& level : kf.features.levels) level = test::Blurred(level, 1.0);
+      for (FeatureLevel& level : kf.features.levels) level = GaussianBlur(level, 1.0);
       const WindowResult r = window.AddKeyframe(std::move(kf));
       ASSERT_TRUE(k == 0 || r.optimized) << r.message;
       if (k >= 4) errors.push_back(Errors(r.keyframe_poses).max_trans_m);
