@@ -234,8 +234,8 @@ struct WindowOptimizer::KeyframeState {
   // s_k of WindowOptions::depth_prior_scale_fraction: its points' prior inverse depths are
   // prior_inverse_depth * exp(log_prior_scale) (0 when the fraction is 1).
   double log_prior_scale = 0.0;
-  // WindowOptions::zoom_blur_sigma_px: `level` blurred for the zooms of ZoomLadder (index i:
-  // zoom ZoomLadder()[i]); empty when off.
+  // WindowOptions::zoom_blur_sigma_px: `level` blurred for the zooms of zoom_ladder_ (the same
+  // index); empty when off.
   std::vector<FeatureLevel> zoom_blurred;
 };
 
@@ -266,6 +266,9 @@ struct WindowOptimizer::PointState {
 WindowOptimizer::WindowOptimizer(const WindowOptions& options) : options_(options) {
   options_.Check();
   manifold_ = std::make_unique<SE3Manifold>();
+  scaled_depth_prior_ =
+      options_.depth_prior_weight > 0.0 && options_.depth_prior_scale_fraction < 1.0;
+  if (options_.zoom_blur_sigma_px > 0.0) zoom_ladder_ = ZoomLadder(options_.max_patch_stretch);
 }
 
 WindowOptimizer::~WindowOptimizer() = default;
@@ -428,9 +431,6 @@ double WindowOptimizer::SelectPoints(KeyframeState* kf) {
 void WindowOptimizer::ConnectNewKeyframe(KeyframeState* new_kf) {
   const int full = options_.patch_size * options_.patch_size;
   const double max_stretch = options_.max_patch_stretch;
-  const std::vector<double> zooms = options_.zoom_blur_sigma_px > 0.0
-                                        ? ZoomLadder(options_.max_patch_stretch)
-                                        : std::vector<double>();
   for (auto& p : points_) {
     KeyframeState* host = FindKeyframe(p->host_id);
     const Eigen::Vector2d uv(p->x, p->y);
@@ -440,10 +440,10 @@ void WindowOptimizer::ConnectNewKeyframe(KeyframeState* new_kf) {
                                                       p->depth_shape);
       const Eigen::Vector2d stretch = cost->WarpStretch(host->pose, target->pose, p->inverse_depth);
       if (!(stretch(0) <= max_stretch && stretch(1) >= 1.0 / max_stretch)) return;
-      if (!zooms.empty()) {
+      if (!zoom_ladder_.empty()) {
         // The same surface blur on both sides: the zoomed-in side's features blurred more.
         const double zoom = std::sqrt(stretch(0) * stretch(1));
-        const int t = ZoomIndex(zooms, zoom), h = ZoomIndex(zooms, 1.0 / zoom);
+        const int t = ZoomIndex(zoom_ladder_, zoom), h = ZoomIndex(zoom_ladder_, 1.0 / zoom);
         if (t >= 0 || h >= 0) {
           auto patch = p->patch;
           if (h >= 0) {
@@ -572,8 +572,6 @@ bool WindowOptimizer::Solve(int max_iterations, double* initial_cost, double* fi
   for (size_t i = 0; i < points_.size(); ++i) depth_buffer[i] = points_[i]->inverse_depth;
   // Keyframe log scales of the depth prior (depth_prior_scale_fraction < 1), added to the
   // problem with the first point that uses them.
-  const bool scaled_prior =
-      options_.depth_prior_weight > 0.0 && options_.depth_prior_scale_fraction < 1.0;
   std::vector<double> scale_buffer(num_kf);
   std::map<int, size_t> position_of;  // keyframe id -> position in the window
   for (size_t i = 0; i < num_kf; ++i) {
@@ -633,7 +631,7 @@ bool WindowOptimizer::Solve(int max_iterations, double* initial_cost, double* fi
     }
     ordering->AddElementToGroup(depth, 0);
     if (coarse && p->host_id != keyframes_.back()->id) problem.SetParameterBlockConstant(depth);
-    if (scaled_prior) {
+    if (scaled_depth_prior_) {
       const size_t k = position_of.at(p->host_id);
       owned_costs.push_back(std::make_unique<ScaledInverseDepthPriorCost>(
           p->prior_inverse_depth, options_.depth_prior_weight));
@@ -648,7 +646,7 @@ bool WindowOptimizer::Solve(int max_iterations, double* initial_cost, double* fi
       problem.AddResidualBlock(owned_costs.back().get(), nullptr, depth);
     }
   }
-  if (scaled_prior && options_.depth_prior_scale_fraction > 0.0) {
+  if (scaled_depth_prior_ && options_.depth_prior_scale_fraction > 0.0) {
     const double f = options_.depth_prior_scale_fraction;
     for (size_t k = 0; k < num_kf; ++k) {
       if (prior_points[k] == 0) continue;
@@ -881,11 +879,9 @@ WindowResult WindowOptimizer::AddKeyframe(KeyframeData data) {
   }
   if (options_.coarse_iterations > 0) kf->coarse = std::move(data.features.levels[level + 1]);
   kf->level = std::move(f);
-  if (options_.zoom_blur_sigma_px > 0.0) {
-    for (double zoom : ZoomLadder(options_.max_patch_stretch)) {
-      kf->zoom_blurred.push_back(
-          GaussianBlur(kf->level, options_.zoom_blur_sigma_px * std::sqrt(zoom * zoom - 1.0)));
-    }
+  for (double zoom : zoom_ladder_) {
+    kf->zoom_blurred.push_back(
+        GaussianBlur(kf->level, options_.zoom_blur_sigma_px * std::sqrt(zoom * zoom - 1.0)));
   }
   kf->depth = d;
   kf->initial_depth_scale = data.initial_depth_scale;
@@ -983,8 +979,6 @@ int WindowOptimizer::ChooseKeyframeToMarginalize() const {
 void WindowOptimizer::MarginalizeKeyframe(int position, WindowResult* result) {
   KeyframeState* leaving = keyframes_[position].get();
   const int leaving_id = leaving->id;
-  const bool scaled_prior =
-      options_.depth_prior_weight > 0.0 && options_.depth_prior_scale_fraction < 1.0;
   auto warn = [result](const std::string& text) {
     if (!result->message.empty()) result->message += "; ";
     result->message += text;
@@ -1043,19 +1037,19 @@ void WindowOptimizer::MarginalizeKeyframe(int position, WindowResult* result) {
       if (options_.depth_prior_weight > 0.0) {
         LinearizedFactor factor;
         const double sqrt_w = std::sqrt(options_.depth_prior_weight);
-        double s = sqrt_w / p->prior_inverse_depth;
-        if (scaled_prior) {
+        double residual = 0.0, jacobian = 0.0;
+        if (scaled_depth_prior_) {
           // ScaledInverseDepthPriorCost with the keyframe's log scale held at its last value.
-          s = sqrt_w / p->inverse_depth;
-          factor.residual = Eigen::VectorXd::Constant(
-              1, sqrt_w * (std::log(p->inverse_depth / p->prior_inverse_depth) -
-                           leaving->log_prior_scale));
+          residual = sqrt_w * (std::log(p->inverse_depth / p->prior_inverse_depth) -
+                               leaving->log_prior_scale);
+          jacobian = sqrt_w / p->inverse_depth;
         } else {
-          factor.residual =
-              Eigen::VectorXd::Constant(1, s * (p->inverse_depth - p->prior_inverse_depth));
+          jacobian = sqrt_w / p->prior_inverse_depth;
+          residual = jacobian * (p->inverse_depth - p->prior_inverse_depth);
         }
+        factor.residual = Eigen::VectorXd::Constant(1, residual);
         factor.variables = {point_var};
-        factor.jacobians = {Eigen::MatrixXd::Constant(1, 1, s)};
+        factor.jacobians = {Eigen::MatrixXd::Constant(1, 1, jacobian)};
         factors.push_back(std::move(factor));
       }
     }

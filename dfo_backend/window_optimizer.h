@@ -314,6 +314,12 @@ class WindowOptimizer {
   std::vector<int> prior_keyframe_ids_;  // KeyframeState::id per prior block
   int next_keyframe_id_ = 0;
   int channels_ = 0;
+  // WindowOptions::depth_prior_scale_fraction < 1 with a depth prior: each keyframe's prior
+  // depths share a free log scale.
+  bool scaled_depth_prior_ = false;
+  // The zooms of WindowOptions::zoom_blur_sigma_px whose blurred features each keyframe keeps
+  // (1.1, 1.2, ... up to max_patch_stretch); empty when off.
+  std::vector<double> zoom_ladder_;
 };
 
 }  // namespace dfo
