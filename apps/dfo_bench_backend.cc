@@ -53,6 +53,8 @@ options:
   --patch-depth-shape    WindowOptions::patch_depth_shape = true (patches warped as the depth
                          map's surface, not fronto-parallel)
   --zoom-blur S          WindowOptions::zoom_blur_sigma_px (default 0; the features' blur: --blur)
+  --zoom-scaled-gradients  WindowOptions::zoom_scaled_gradients = true (the host's gradient
+                         channels scaled by 1 / zoom in each block)
   --descriptor NAME      hand-made features: intensity, intensity_gradients (default) or rich
   --blur S               hand-made features: blur_sigma_px (default 1)
   --perturbation F       scale of the keyframe pose perturbation (default 1: 1 cm and 0.1 deg
@@ -122,6 +124,8 @@ Args Parse(int argc, char** argv) {
       args.window.max_patch_stretch = std::atof(next());
     } else if (flag == "--zoom-blur") {
       args.window.zoom_blur_sigma_px = std::atof(next());
+    } else if (flag == "--zoom-scaled-gradients") {
+      args.window.zoom_scaled_gradients = true;
     } else if (flag == "--patch-depth-shape") {
       args.window.patch_depth_shape = true;
     } else if (flag == "--descriptor") {

@@ -55,6 +55,14 @@ std::vector<double> SampleHostPatch(const FeatureLevel& level, int x, int y, int
 bool SampleHostPatchBilinear(const FeatureLevel& level, const Eigen::Vector2d& uv, int patch_size,
                              std::vector<double>* patch);
 
+// `patch` (C x K x K, channel-major, as SampleHostPatch) with every channel of derivative order
+// n (FeatureLevel::derivative_order; missing entries count as 0) scaled by zoom^-n: the patch as
+// a view that sees it `zoom` times larger sees its gradients
+// (WindowOptions::zoom_scaled_gradients). Null when no channel has a derivative order.
+std::shared_ptr<const std::vector<double>> ZoomScaledPatch(const std::vector<double>& patch,
+                                                           const std::vector<int>& orders,
+                                                           int patch_size, double zoom);
+
 // Everything one residual block needs to evaluate, by value. FeatureMetricCost and
 // CompressedFeatureMetricCost each hold a copy, so that evaluating a block reads one small object
 // and the images rather than a chain of heap objects: the window's solves are bound by memory
@@ -76,9 +84,9 @@ struct FeatureMetricBlock {
   // pixel's point is Ray(k) / inverse_depth.
   Eigen::Vector3d Ray(int k) const {
     const int radius = patch_size / 2;
-    const Eigen::Vector3d ray = center_ray + Eigen::Vector3d((k % patch_size - radius) * ray_step_x,
-                                                             (k / patch_size - radius) * ray_step_y,
-                                                             0.0);
+    const Eigen::Vector3d ray =
+        center_ray + Eigen::Vector3d((k % patch_size - radius) * ray_step_x,
+                                     (k / patch_size - radius) * ray_step_y, 0.0);
     return depth_shape ? Eigen::Vector3d(ray * depth_shape[k]) : ray;
   }
   // See FeatureMetricCost: residuals and tangent (ambient = false) or ambient Jacobians.

@@ -211,9 +211,9 @@ void WindowOptions::Check() const {
           "in (0, 1]");
   Require(relative_eigenvalue_floor > 0.0 && relative_eigenvalue_floor < 1.0,
           "backend.relative_eigenvalue_floor", relative_eigenvalue_floor, "in (0, 1)");
-  Require(std::isfinite(zoom_blur_sigma_px) && zoom_blur_sigma_px >= 0.0 &&
-              zoom_blur_sigma_px <= 10.0,
-          "window.zoom_blur_sigma_px", zoom_blur_sigma_px, "in [0, 10]");
+  Require(
+      std::isfinite(zoom_blur_sigma_px) && zoom_blur_sigma_px >= 0.0 && zoom_blur_sigma_px <= 10.0,
+      "window.zoom_blur_sigma_px", zoom_blur_sigma_px, "in [0, 10]");
   Require(depth_prior_scale_fraction >= 0.0 && depth_prior_scale_fraction <= 1.0,
           "window.depth_prior_scale_fraction", depth_prior_scale_fraction, "in [0, 1]");
   Require(prior_scale_memory >= 0.0 && prior_scale_memory <= 1.0, "backend.prior_scale_memory",
@@ -350,9 +350,9 @@ double WindowOptimizer::SelectPoints(KeyframeState* kf) {
   const FeatureLevel& f = kf->level;
   const int w = f.width, h = f.height;
   const int border = options_.patch_size / 2 + 1;
-  const double edge_ratio =
-      options_.max_depth_edge_slope > 0.0 ? 1.0 + options_.max_depth_edge_slope * 2.0 / f.camera.fx
-                                          : 0.0;
+  const double edge_ratio = options_.max_depth_edge_slope > 0.0
+                                ? 1.0 + options_.max_depth_edge_slope * 2.0 / f.camera.fx
+                                : 0.0;
   int num_with_depth = 0, num_on_edge = 0;
   const double cell =
       std::max(2.0, std::sqrt(static_cast<double>(w) * h / (2.0 * options_.points_per_keyframe)));
@@ -435,25 +435,33 @@ void WindowOptimizer::ConnectNewKeyframe(KeyframeState* new_kf) {
     KeyframeState* host = FindKeyframe(p->host_id);
     const Eigen::Vector2d uv(p->x, p->y);
     auto try_add = [&](KeyframeState* target) {
-      auto cost = std::make_unique<FeatureMetricCost>(&target->level, host->level.camera, uv,
-                                                      options_.patch_size, p->patch,
-                                                      p->depth_shape);
+      auto cost = std::make_unique<FeatureMetricCost>(
+          &target->level, host->level.camera, uv, options_.patch_size, p->patch, p->depth_shape);
       const Eigen::Vector2d stretch = cost->WarpStretch(host->pose, target->pose, p->inverse_depth);
       if (!(stretch(0) <= max_stretch && stretch(1) >= 1.0 / max_stretch)) return;
+      // How much larger the target sees the patch than the host.
+      const double zoom = std::sqrt(stretch(0) * stretch(1));
+      const FeatureLevel* target_level = &target->level;
+      std::shared_ptr<const std::vector<double>> patch = p->patch;
       if (!zoom_ladder_.empty()) {
         // The same surface blur on both sides: the zoomed-in side's features blurred more.
-        const double zoom = std::sqrt(stretch(0) * stretch(1));
         const int t = ZoomIndex(zoom_ladder_, zoom), h = ZoomIndex(zoom_ladder_, 1.0 / zoom);
-        if (t >= 0 || h >= 0) {
-          auto patch = p->patch;
-          if (h >= 0) {
-            patch = std::make_shared<const std::vector<double>>(
-                SampleHostPatch(host->zoom_blurred[h], p->x, p->y, options_.patch_size));
-          }
-          cost = std::make_unique<FeatureMetricCost>(
-              t >= 0 ? &target->zoom_blurred[t] : &target->level, host->level.camera, uv,
-              options_.patch_size, patch, p->depth_shape);
+        if (t >= 0) target_level = &target->zoom_blurred[t];
+        if (h >= 0) {
+          patch = std::make_shared<const std::vector<double>>(
+              SampleHostPatch(host->zoom_blurred[h], p->x, p->y, options_.patch_size));
         }
+      }
+      if (options_.zoom_scaled_gradients) {
+        // The same gradient steepness on the surface: the target sees gradients 1 / zoom as steep.
+        if (auto scaled =
+                ZoomScaledPatch(*patch, host->level.derivative_order, options_.patch_size, zoom)) {
+          patch = std::move(scaled);
+        }
+      }
+      if (target_level != &target->level || patch != p->patch) {
+        cost = std::make_unique<FeatureMetricCost>(target_level, host->level.camera, uv,
+                                                   options_.patch_size, patch, p->depth_shape);
       }
       if (cost->NumVisible(host->pose, target->pose, p->inverse_depth) == full) {
         Block& block = p->residuals[target->id];
@@ -1086,8 +1094,7 @@ void WindowOptimizer::MarginalizeKeyframe(int position, WindowResult* result) {
         // prior_scale_memory at each marginalisation (the projector keeps sqrt of it).
         const double scale_kept =
             options_.depth_prior_weight > 0.0 ? std::sqrt(options_.prior_scale_memory) : 0.0;
-        ok = ProjectOutNullspace(nullspace, options_.relative_eigenvalue_floor, &prior,
-                                 scale_kept);
+        ok = ProjectOutNullspace(nullspace, options_.relative_eigenvalue_floor, &prior, scale_kept);
         if (!ok) why = "no information left after removing the gauge directions";
       }
       if (ok) {

@@ -77,12 +77,13 @@ struct WindowOptions {
   // neighbourhood (pyramid_level) changes faster than this, as the relative change
   // (largest / smallest - 1) per radian of viewing angle (the neighbourhood spans 2 / fx rad), so
   // that a scene gives the same points at any resolution (6: 5 % across the neighbourhood at
-  // fx = 240 px, 10 % at 120 px). Its feature there mixes surfaces at different depths, whose parallax differs, so no
-  // single inverse depth explains it in every keyframe; a true depth map also gives it one side's
-  // depth at random. Surfaces seen at a grazing angle (the near road) go too. Per-pixel depth
-  // noise of a few percent reads as edges everywhere (WindowResult::depth_edge_fraction near 1):
-  // turn it off for such depth. Chosen over real and synthetic video, true and learned depth
-  // (docs/window.md, "Points on depth edges"). 0 = off, else > 0.
+  // fx = 240 px, 10 % at 120 px). Its feature there mixes surfaces at different depths, whose
+  // parallax differs, so no single inverse depth explains it in every keyframe; a true depth map
+  // also gives it one side's depth at random. Surfaces seen at a grazing angle (the near road) go
+  // too. Per-pixel depth noise of a few percent reads as edges everywhere
+  // (WindowResult::depth_edge_fraction near 1): turn it off for such depth. Chosen over real and
+  // synthetic video, true and learned depth (docs/window.md, "Points on depth edges"). 0 = off,
+  // else > 0.
   double max_depth_edge_slope = 6.0;
   // A block is created only where the target sees the patch at a similar scale: both singular
   // values of the warp's derivative (feature_metric_cost.h, WarpStretch) within
@@ -113,6 +114,12 @@ struct WindowOptions {
   // (from a ladder of zooms 1.1, 1.2, ... up to max_patch_stretch, the nearest below s); where
   // s < 1 the host patch is sampled from the host blurred likewise for 1 / s. 0 = off.
   double zoom_blur_sigma_px = 0.0;
+  // Compare gradient channels at the same steepness on the surface: where a block's target sees
+  // the patch zoomed by s (the geometric mean of WarpStretch when the block is made), the host
+  // patch's channels of derivative order n (FeatureLevel::derivative_order; the hand-made
+  // features' x/y gradients and gradient magnitude) are scaled by s^-n, as the target sees them.
+  // Features without derivative orders (learned) are unchanged.
+  bool zoom_scaled_gradients = false;
   // Robust loss on each block: "huber" or "cauchy".
   std::string loss = "huber";
   // Scale of the loss per feature value: the Ceres loss parameter is loss_scale * sqrt(C K^2),

@@ -30,6 +30,12 @@ struct FeatureLevel {
   // Optional selection mask, width * height values row-major; non-zero = the pixel may be
   // selected as a patch centre. Empty = no mask (the tracker selects high-gradient pixels).
   std::vector<uint8_t> mask;
+  // Optional, one value per channel: the order of the spatial derivative (in pixels) the channel
+  // holds, 0 for intensity-like channels, 1 for gradients. A view that sees the surface s times
+  // larger sees a first-derivative channel 1 / s as steep, so a consumer comparing views at
+  // different zooms can rescale it (WindowOptions::zoom_scaled_gradients). Empty = unknown (every
+  // channel treated as 0, e.g. learned features).
+  std::vector<int> derivative_order;
 
   // Allocates width x height x channels zeros (mask left empty).
   FeatureLevel(int width, int height, int channels, const PinholeCamera& camera);

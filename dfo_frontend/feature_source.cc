@@ -106,13 +106,16 @@ FeaturePyramid HandmadeFeatureSource::Compute(const Frame& frame, int num_levels
     if (options_.blur_sigma_px > 0.0) gray = GaussianBlur(gray, options_.blur_sigma_px);
     const ImageGradients g = ComputeGradients(gray);
     FeatureLevel level(gray.width(), gray.height(), channels, pyramid.camera(l));
+    level.derivative_order.assign(channels, 0);
     CopyChannel(gray, &level, 0);
     if (channels >= 3) {
       CopyChannel(g.gx, &level, 1);
       CopyChannel(g.gy, &level, 2);
+      level.derivative_order[1] = level.derivative_order[2] = 1;
     }
     if (channels == 5) {
       CopyChannel(BoxBlur3(gray), &level, 3);
+      level.derivative_order[4] = 1;
       float* mag = level.Channel(4);
       for (size_t i = 0; i < gray.size(); ++i) {
         mag[i] = std::sqrt(g.gx.data()[i] * g.gx.data()[i] + g.gy.data()[i] * g.gy.data()[i]);

@@ -264,9 +264,7 @@ ConfigSchema BuildSchema() {
   s.AddSection("window",
                "Sliding window of keyframes with feature-metric bundle adjustment (Ceres): "
                "points, patches, loss, solver.");
-  s.AddInt("window.max_keyframes", 7, "Keyframes kept in the window (DSO: 5-7)")
-      .Min(5)
-      .Max(64);
+  s.AddInt("window.max_keyframes", 7, "Keyframes kept in the window (DSO: 5-7)").Min(5).Max(64);
   s.AddInt("window.pyramid_level", 0,
            "Pyramid level of the feature and depth maps the BA works on (0 = finest; coarser "
            "levels measured biased: windows drift); below tracker.num_levels")
@@ -316,6 +314,10 @@ ConfigSchema BuildSchema() {
               "sides have the same blur on the surface; 0 = off")
       .Min(0)
       .Max(10);
+  s.AddBool("window.zoom_scaled_gradients", false,
+            "Scale the host patch's gradient channels by 1 / s where a block's target sees the "
+            "patch zoomed by s, so that both sides of a block compare gradients at the same "
+            "steepness on the surface (hand-made features; learned features are unchanged)");
   s.AddBool("window.patch_depth_shape", false,
             "Warp each point's patch as the surface of its keyframe's depth map (every patch pixel "
             "at the map's depth relative to the centre's) instead of as a fronto-parallel plane");

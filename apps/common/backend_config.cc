@@ -48,6 +48,7 @@ WindowOptions WindowOptionsFromConfig(const io::Config& config) {
   o.depth_prior_scale_fraction = config.GetDouble("window.depth_prior_scale_fraction");
   o.patch_depth_shape = config.GetBool("window.patch_depth_shape");
   o.zoom_blur_sigma_px = config.GetDouble("window.zoom_blur_sigma_px");
+  o.zoom_scaled_gradients = config.GetBool("window.zoom_scaled_gradients");
   o.pose_prior_weight = config.GetDouble("window.pose_prior_weight");
   o.outlier_gate_percentile = config.GetDouble("window.outlier_gate_percentile");
   o.outlier_gate_factor = config.GetDouble("window.outlier_gate_factor");

@@ -11,6 +11,7 @@
 
 #include <Eigen/SVD>
 #include <cmath>
+#include <limits>
 #include <random>
 
 #include "dfo_backend/pose_manifold.h"
@@ -331,21 +332,40 @@ TEST(FeatureMetricCostTest, DepthShapedPatchEqualsTwinAndPassesGradientChecker) 
   }
 }
 
+// Frames 0 (host) and 6 (target) of the synthetic street (seed 1, forward motion) with their true
+// poses and depths, one pyramid level.
+struct StreetPair {
+  KeyframeData host, target;
+  double host_pose[7], target_pose[7];
+  StreetPair() {
+    SyntheticOptions options;
+    options.num_frames = 10;
+    options.seed = 1;
+    const SyntheticSequence sequence(options);
+    host = test::MakeSyntheticKeyframe(sequence, 0, 1);
+    target = test::MakeSyntheticKeyframe(sequence, 6, 1);
+    PoseToParameters(host.world_from_cam, host_pose);
+    PoseToParameters(target.world_from_cam, target_pose);
+  }
+  // |r|^2 of `cost` (host into target) at inverse depth rho; NaN when the evaluation fails.
+  double SquaredResidual(const FeatureMetricCost& cost, double rho) const {
+    std::vector<double> r(cost.num_residuals());
+    if (!cost.EvaluateTangent(host_pose, target_pose, rho, r.data(), nullptr, nullptr, nullptr)) {
+      return std::numeric_limits<double>::quiet_NaN();
+    }
+    double sq = 0.0;
+    for (double v : r) sq += v * v;
+    return sq;
+  }
+};
+
 // On the synthetic street with its true depths and poses, patches on slanted surfaces (3 x 3
 // depth spread above 3 %: the road, walls seen at an angle) match their target better when
 // warped as the depth map's surface than as a fronto-parallel plane at the centre's depth.
 TEST(FeatureMetricCostTest, DepthShapedPatchesMatchSlantedSurfacesBetter) {
-  SyntheticOptions options;
-  options.num_frames = 10;
-  options.seed = 1;
-  const SyntheticSequence sequence(options);
-  const KeyframeData host = test::MakeSyntheticKeyframe(sequence, 0, 1);
-  const KeyframeData target = test::MakeSyntheticKeyframe(sequence, 6, 1);
-  const FeatureLevel& host_level = host.features.levels[0];
-  const ImageF& depth = host.depth.levels[0];
-  double host_pose[7], target_pose[7];
-  PoseToParameters(host.world_from_cam, host_pose);
-  PoseToParameters(target.world_from_cam, target_pose);
+  const StreetPair pair;
+  const FeatureLevel& host_level = pair.host.features.levels[0];
+  const ImageF& depth = pair.host.depth.levels[0];
   double flat_sum = 0.0, shaped_sum = 0.0;
   int n = 0;
   for (int y = 1; y + 1 < depth.height(); y += 2) {
@@ -358,21 +378,18 @@ TEST(FeatureMetricCostTest, DepthShapedPatchesMatchSlantedSurfacesBetter) {
         }
       }
       if (!(lo > 0.0f) || !(hi / lo > 1.03f) || hi / lo > 1.3f) continue;
-      auto patch = std::make_shared<const std::vector<double>>(SampleHostPatch(host_level, x, y, 3));
+      auto patch =
+          std::make_shared<const std::vector<double>>(SampleHostPatch(host_level, x, y, 3));
       auto shape = std::make_shared<std::vector<double>>(9);
       for (int k = 0; k < 9; ++k) (*shape)[k] = depth(x + k % 3 - 1, y + k / 3 - 1) / depth(x, y);
       const Eigen::Vector2d uv(x, y);
-      FeatureMetricCost flat(&target.features.levels[0], host_level.camera, uv, 3, patch);
-      FeatureMetricCost shaped(&target.features.levels[0], host_level.camera, uv, 3, patch, shape);
+      FeatureMetricCost flat(&pair.target.features.levels[0], host_level.camera, uv, 3, patch);
+      FeatureMetricCost shaped(&pair.target.features.levels[0], host_level.camera, uv, 3, patch,
+                               shape);
       const double rho = 1.0 / depth(x, y);
-      if (flat.NumVisible(host_pose, target_pose, rho) < 9) continue;
-      std::vector<double> r(flat.num_residuals());
-      ASSERT_TRUE(flat.EvaluateTangent(host_pose, target_pose, rho, r.data(), nullptr, nullptr,
-                                       nullptr));
-      for (double v : r) flat_sum += v * v;
-      ASSERT_TRUE(shaped.EvaluateTangent(host_pose, target_pose, rho, r.data(), nullptr, nullptr,
-                                         nullptr));
-      for (double v : r) shaped_sum += v * v;
+      if (flat.NumVisible(pair.host_pose, pair.target_pose, rho) < 9) continue;
+      flat_sum += pair.SquaredResidual(flat, rho);
+      shaped_sum += pair.SquaredResidual(shaped, rho);
       ++n;
     }
   }
@@ -382,6 +399,55 @@ TEST(FeatureMetricCostTest, DepthShapedPatchesMatchSlantedSurfacesBetter) {
       n, flat_sum / std::max(n, 1), shaped_sum / std::max(n, 1));
   EXPECT_GT(n, 100);
   EXPECT_LT(shaped_sum, 0.92 * flat_sum);  // measured: 0.86
+}
+
+// A view that sees a surface s times larger sees its gradients in pixels 1 / s as steep. On the
+// synthetic street with its true depths and poses (forward motion: frame 0 into frame 6), patches
+// the target sees zoomed by 1.1 or more match it better with the host patch's gradient channels
+// scaled by 1 / s (ZoomScaledPatch, window.zoom_scaled_gradients); the intensity channel is left
+// as it is, and features without derivative orders (learned ones) are not touched.
+TEST(FeatureMetricCostTest, ZoomScaledGradientsMatchZoomedViewsBetter) {
+  const StreetPair pair;
+  const FeatureLevel& host_level = pair.host.features.levels[0];
+  ASSERT_EQ(host_level.derivative_order, (std::vector<int>{0, 1, 1}));
+  const ImageF& depth = pair.host.depth.levels[0];
+  double plain_sum = 0.0, scaled_sum = 0.0, zoom_sum = 0.0;
+  int n = 0;
+  for (int y = 1; y + 1 < depth.height(); y += 2) {
+    for (int x = 1; x + 1 < depth.width(); x += 2) {
+      if (!(depth(x, y) > 0.0f)) continue;
+      const double rho = 1.0 / depth(x, y);
+      const Eigen::Vector2d uv(x, y);
+      auto patch =
+          std::make_shared<const std::vector<double>>(SampleHostPatch(host_level, x, y, 3));
+      FeatureMetricCost plain(&pair.target.features.levels[0], host_level.camera, uv, 3, patch);
+      if (plain.NumVisible(pair.host_pose, pair.target_pose, rho) < 9) continue;
+      const Eigen::Vector2d stretch = plain.WarpStretch(pair.host_pose, pair.target_pose, rho);
+      const double zoom = std::sqrt(stretch(0) * stretch(1));
+      if (!(zoom >= 1.1) || zoom > 1.5) continue;
+      auto scaled_patch = ZoomScaledPatch(*patch, host_level.derivative_order, 3, zoom);
+      ASSERT_NE(scaled_patch, nullptr);
+      for (int k = 0; k < 9; ++k) {
+        EXPECT_EQ((*scaled_patch)[k], (*patch)[k]);  // intensity unchanged
+        EXPECT_NEAR((*scaled_patch)[9 + k], (*patch)[9 + k] / zoom, 1e-12);
+      }
+      FeatureMetricCost scaled(&pair.target.features.levels[0], host_level.camera, uv, 3,
+                               scaled_patch);
+      plain_sum += pair.SquaredResidual(plain, rho);
+      scaled_sum += pair.SquaredResidual(scaled, rho);
+      zoom_sum += zoom;
+      ++n;
+    }
+  }
+  std::printf(
+      "[ figures  ] %d patches seen zoomed (mean %.2f), frame 0 into 6 at the truth: mean squared "
+      "residual %.4f with the host's gradients as they are, %.4f scaled by 1 / zoom\n",
+      n, zoom_sum / std::max(n, 1), plain_sum / std::max(n, 1), scaled_sum / std::max(n, 1));
+  EXPECT_GT(n, 100);
+  EXPECT_LT(scaled_sum, 0.92 * plain_sum);  // measured: 0.86
+  // Learned features carry no derivative orders: nothing to scale.
+  EXPECT_EQ(ZoomScaledPatch(std::vector<double>(27, 1.0), {}, 3, 1.3), nullptr);
+  EXPECT_EQ(ZoomScaledPatch(std::vector<double>(27, 1.0), {0, 0, 0}, 3, 1.3), nullptr);
 }
 
 TEST(FeatureMetricCostTest, IdenticalViewsGiveZeroResidual) {

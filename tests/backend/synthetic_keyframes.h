@@ -54,6 +54,7 @@ inline ImageF HalveDepth(const ImageF& d) {
 inline FeatureLevel GrayFeatures(const ImageF& g, const PinholeCamera& camera) {
   const int w = g.width(), h = g.height();
   FeatureLevel level(w, h, 3, camera);
+  level.derivative_order = {0, 1, 1};  // intensity, x and y gradients (as the hand-made ones)
   for (int y = 0; y < h; ++y) {
     for (int x = 0; x < w; ++x) {
       const int xm = std::max(x - 1, 0), xp = std::min(x + 1, w - 1);
