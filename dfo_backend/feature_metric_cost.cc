@@ -32,16 +32,14 @@ std::vector<double> SampleHostPatch(const FeatureLevel& level, int x, int y, int
 std::shared_ptr<const std::vector<double>> ZoomScaledPatch(const std::vector<double>& patch,
                                                            const std::vector<int>& orders,
                                                            int patch_size, double zoom) {
+  if (std::all_of(orders.begin(), orders.end(), [](int n) { return n == 0; })) return nullptr;
   const size_t pixels = static_cast<size_t>(patch_size) * patch_size;
   auto scaled = std::make_shared<std::vector<double>>(patch);
-  bool any = false;
   for (size_t c = 0; c < orders.size() && (c + 1) * pixels <= scaled->size(); ++c) {
     if (orders[c] == 0) continue;
-    any = true;
     const double factor = std::pow(zoom, -orders[c]);
     for (size_t k = c * pixels; k < (c + 1) * pixels; ++k) (*scaled)[k] *= factor;
   }
-  if (!any) return nullptr;
   return scaled;
 }
 
