@@ -2,6 +2,8 @@
 //
 //   dfo_eval traj --gt FILE --est FILE [options]   ATE, RPE, KITTI t_rel/r_rel, snippet ATE
 //   dfo_eval depth --gt DIR --pred DIR [options]   AbsRel, SqRel, RMSE, RMSE log, delta < 1.25^k
+//   dfo_eval stereo-depth --path ROOT --output DIR  reference depth of real frames from their
+//                                                    ground-truth poses (plane-sweep stereo)
 //
 // Figures follow evo (ATE/RPE), the KITTI devkit (t_rel, r_rel), SfMLearner (snippet ATE) and
 // Monodepth2 (depth); see dfo_core/metrics.h and dfo_core/depth_metrics.h. Errors print one line
@@ -20,10 +22,14 @@
 #include <vector>
 
 #include "apps/common/evaluation.h"
+#include "apps/common/progress.h"
 #include "dfo_core/alignment.h"
 #include "dfo_core/depth_metrics.h"
 #include "dfo_core/error.h"
 #include "dfo_core/metrics.h"
+#include "dfo_core/plane_sweep.h"
+#include "dfo_io/dataset.h"
+#include "dfo_io/depth_colour.h"
 #include "dfo_io/image_io.h"
 #include "dfo_io/json.h"
 #include "dfo_io/plot.h"
@@ -44,6 +50,7 @@ constexpr const char* kMainHelp =
     "commands:\n"
     "  traj    evaluate an estimated trajectory against ground truth (ATE, RPE, KITTI, snippet)\n"
     "  depth   evaluate predicted depth maps against ground truth (AbsRel, RMSE, delta, ...)\n"
+    "  stereo-depth  reference depth maps of real frames from their ground-truth poses\n"
     "\n"
     "`dfo_eval <command> --help` lists the options of a command.\n";
 
@@ -85,6 +92,36 @@ constexpr const char* kDepthHelp =
     "  --max-depth M          ... and < M metres; predictions clamped to [min, max] (default 80)\n"
     "  --median-scaling       scale each prediction by median(gt) / median(pred) first\n"
     "  --json                 print one JSON object on stdout instead of text\n"
+    "  --help                 this text\n";
+
+constexpr const char* kStereoDepthHelp =
+    "usage: dfo_eval stereo-depth --path ROOT --output DIR [options]\n"
+    "\n"
+    "Depth maps of a sequence's frames from its ground-truth poses, for depth metrics on real\n"
+    "video that has poses but no depth (KITTI odometry): each reference frame is matched against\n"
+    "its neighbours by plane-sweep stereo (ZNCC over a window, inverse depths between --min-depth\n"
+    "and --max-depth) at the images' native size, and only confident pixels keep a depth\n"
+    "(dfo_core/plane_sweep.h). Writes DIR/<image name>.png (16-bit, metres x 256, 0 = none; the\n"
+    "format of dfo_train --write-depth, so `dfo_eval depth --gt DIR --pred PRED` compares them)\n"
+    "and DIR/pictures/<image name>.png (the frame above its depth, log colours 2-150 m).\n"
+    "\n"
+    "options:\n"
+    "  --path ROOT            dataset root (as dataset.path)\n"
+    "  --type T               kitti | tum | folder (default kitti; as dataset.type)\n"
+    "  --sequence NAME        KITTI sequence (default 00)\n"
+    "  --camera FILE          camera.yaml of tum / folder (default: the dataset's own)\n"
+    "  --frames A-B           reference frames, recording indices, inclusive (default: all)\n"
+    "  --every N              every N-th frame of --frames (default 10)\n"
+    "  --neighbours N         views: the frames i-N..i-1 and i+1..i+N that exist (default 3)\n"
+    "  --min-depth M          nearest depth tried in metres (default 2)\n"
+    "  --max-depth M          farthest depth tried in metres (default 120)\n"
+    "  --depths N             inverse-depth samples (default 192)\n"
+    "  --window-radius R      ZNCC window half side in pixels (default 3)\n"
+    "  --max-cost C           largest accepted 1 - mean ZNCC (default 0.3)\n"
+    "  --uniqueness U         second minimum / best cost, at least (default 1.5)\n"
+    "  --min-texture S        window grey-level standard deviation, at least (default 4)\n"
+    "  --min-epipolar PX      epipolar length of the depth range in some view (default 20)\n"
+    "  --threads N            worker threads (default 2; the maps do not depend on it)\n"
     "  --help                 this text\n";
 
 // Parsed "--key value" and "--flag" options of one command.
@@ -437,13 +474,147 @@ int RunDepth(int argc, char** argv) {
   return 0;
 }
 
+// "A-B" -> {A, B}; UsageError otherwise.
+std::pair<int, int> ParseRange(const std::string& key, const std::string& text) {
+  const size_t dash = text.find('-');
+  char* end = nullptr;
+  if (dash != std::string::npos && dash > 0) {
+    const long a = std::strtol(text.c_str(), &end, 10);
+    if (end == text.c_str() + dash) {
+      const long b = std::strtol(text.c_str() + dash + 1, &end, 10);
+      if (*end == '\0' && end != text.c_str() + dash + 1 && a >= 0 && b >= a) {
+        return {static_cast<int>(a), static_cast<int>(b)};
+      }
+    }
+  }
+  throw UsageError("option " + key + " = '" + text + "' is not a range A-B with 0 <= A <= B");
+}
+
+int RunStereoDepth(int argc, char** argv) {
+  if (WantsHelp(argc, argv)) {
+    std::cout << kStereoDepthHelp;
+    return 0;
+  }
+  const Options opt(
+      "stereo-depth", argc, argv,
+      {"--path", "--type", "--sequence", "--camera", "--output", "--frames", "--every",
+       "--neighbours", "--min-depth", "--max-depth", "--depths", "--window-radius", "--max-cost",
+       "--uniqueness", "--min-texture", "--min-epipolar", "--threads"},
+      {});
+  const auto integer = [&](const std::string& key, int fallback, int min) {
+    const double v = opt.Number(key, fallback);
+    if (v != std::floor(v) || v < min || v > 1e6) {
+      throw UsageError("option " + key + " = " + opt.Get(key, "") +
+                       " must be an integer >= " + std::to_string(min));
+    }
+    return static_cast<int>(v);
+  };
+  io::DatasetOptions dataset;
+  dataset.type = opt.Get("--type", "kitti");
+  dataset.path = opt.Required("--path");
+  dataset.sequence = opt.Get("--sequence", dataset.sequence);
+  dataset.camera = opt.Get("--camera", "");
+  dataset.keep_native = true;
+  const std::string output = opt.Required("--output");
+  const int every = integer("--every", 10, 1);
+  const int neighbours = integer("--neighbours", 3, 1);
+  PlaneSweepOptions sweep;
+  sweep.min_depth_m = opt.Number("--min-depth", sweep.min_depth_m);
+  sweep.max_depth_m = opt.Number("--max-depth", sweep.max_depth_m);
+  sweep.num_depths = integer("--depths", sweep.num_depths, 1);
+  sweep.window_radius = integer("--window-radius", sweep.window_radius, 0);
+  sweep.max_cost = opt.Number("--max-cost", sweep.max_cost);
+  sweep.uniqueness = opt.Number("--uniqueness", sweep.uniqueness);
+  sweep.min_texture = opt.Number("--min-texture", sweep.min_texture);
+  sweep.min_epipolar_px = opt.Number("--min-epipolar", sweep.min_epipolar_px);
+  sweep.num_threads = integer("--threads", 2, 1);
+  sweep.min_views = 1;
+  try {
+    sweep.Check();
+  } catch (const ConfigError& e) {
+    throw UsageError(e.what());
+  }
+
+  const io::Sequence sequence = io::OpenSequence(dataset);
+  const int count = static_cast<int>(sequence.size());
+  std::pair<int, int> range = {0, count - 1};
+  if (opt.Has("--frames")) range = ParseRange("--frames", opt.Get("--frames", ""));
+  if (range.first >= count) {
+    throw InputError(sequence.name() + " has " + std::to_string(count) + " frames; --frames " +
+                     opt.Get("--frames", "") + " starts after the last");
+  }
+  range.second = std::min(range.second, count - 1);
+  const PinholeCamera camera = sequence.camera();
+  const auto pose_of = [&](int i) {
+    const std::optional<SE3d>& pose = sequence.frame(i).world_from_cam;
+    if (!pose) {
+      throw InputError(sequence.name() + " frame " + std::to_string(i) + " (" +
+                       sequence.frame(i).image_path +
+                       ") has no ground-truth pose; stereo depth needs the poses");
+    }
+    return *pose;
+  };
+
+  namespace fs = std::filesystem;
+  std::error_code ec;
+  fs::create_directories(fs::path(output) / "pictures", ec);
+  if (ec) throw InputError("cannot create " + output + "/pictures: " + ec.message());
+  std::vector<int> references;
+  for (int i = range.first; i <= range.second; i += every) references.push_back(i);
+  apps::ProgressReporter progress(stdout, apps::ProgressMode::kAuto, references.size(), 5.0,
+                                  "dfo_eval stereo-depth");
+  double confident_sum = 0.0;
+  std::map<int, ImageF> images;  // loaded frames still needed
+  const auto image_of = [&](int i) -> const ImageF& {
+    auto it = images.find(i);
+    if (it == images.end()) it = images.emplace(i, sequence.LoadImage(i).Cast<float>()).first;
+    return it->second;
+  };
+  for (size_t k = 0; k < references.size(); ++k) {
+    const int i = references[k];
+    const SE3d world_from_ref = pose_of(i);
+    std::vector<StereoView> views;
+    for (int j = std::max(0, i - neighbours); j <= std::min(count - 1, i + neighbours); ++j) {
+      if (j != i) views.push_back({&image_of(j), pose_of(j).Inverse() * world_from_ref});
+    }
+    const PlaneSweepResult result = PlaneSweepDepth(image_of(i), camera, views, sweep);
+    const std::string name = fs::path(sequence.frame(i).image_path).stem().string() + ".png";
+    io::WriteDepthPng((fs::path(output) / name).string(), result.depth, 256.0);
+    // The picture: the frame (grey) above its depth.
+    const ImageU8 grey = sequence.LoadImage(i);
+    const ImageU8 colour = io::ColourDepth(result.depth, 2.0, 150.0);
+    ImageU8 picture(camera.width, 2 * camera.height, 3, 0);
+    for (int y = 0; y < camera.height; ++y) {
+      for (int x = 0; x < camera.width; ++x) {
+        for (int c = 0; c < 3; ++c) {
+          picture(x, y, c) = grey(x, y, grey.channels() == 3 ? c : 0);
+          picture(x, y + camera.height, c) = colour(x, y, c);
+        }
+      }
+    }
+    io::WriteImage((fs::path(output) / "pictures" / name).string(), picture);
+    confident_sum += result.confident_fraction;
+    for (auto it = images.begin(); it != images.end();) {
+      it = it->first < i + every - neighbours ? images.erase(it) : std::next(it);
+    }
+    progress.Update(k + 1, "frame " + std::to_string(i) + ": " +
+                               Fixed(100.0 * result.confident_fraction, 1) + " % confident");
+  }
+  progress.Finish(references.size());
+  std::cout << "wrote " << references.size() << " depth maps of " << sequence.name() << " ("
+            << camera.width << "x" << camera.height << ", "
+            << Fixed(100.0 * confident_sum / std::max<size_t>(references.size(), 1), 1)
+            << " % of the pixels confident on average) to " << output << "\n";
+  return 0;
+}
+
 }  // namespace
 }  // namespace dfo
 
 int main(int argc, char** argv) {
   if (argc < 2) {
-    std::cerr
-        << "dfo_eval: error: no command given, expected traj or depth (see dfo_eval --help)\n";
+    std::cerr << "dfo_eval: error: no command given, expected traj, depth or stereo-depth (see "
+                 "dfo_eval --help)\n";
     return 2;
   }
   const std::string command = argv[1];
@@ -454,8 +625,9 @@ int main(int argc, char** argv) {
   try {
     if (command == "traj") return dfo::RunTraj(argc - 2, argv + 2);
     if (command == "depth") return dfo::RunDepth(argc - 2, argv + 2);
+    if (command == "stereo-depth") return dfo::RunStereoDepth(argc - 2, argv + 2);
     std::cerr << "dfo_eval: error: unknown command '" << command
-              << "', expected traj or depth (see dfo_eval --help)\n";
+              << "', expected traj, depth or stereo-depth (see dfo_eval --help)\n";
     return 2;
   } catch (const dfo::UsageError& e) {
     std::cerr << "dfo_eval " << command << ": error: " << e.what() << " (see dfo_eval " << command

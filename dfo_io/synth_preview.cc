@@ -9,6 +9,7 @@
 #include <vector>
 
 #include "dfo_core/error.h"
+#include "dfo_io/depth_colour.h"
 #include "dfo_io/image_io.h"
 
 namespace dfo::io {
@@ -33,26 +34,15 @@ double DepthToUnit(double d, const SynthPreviewOptions& o) {
   return std::clamp(t, 0.0, 1.0);
 }
 
-// Turbo colour map lookup (near = warm): OpenCV's COLORMAP_TURBO on 1 - t.
-cv::Mat TurboLut() {
-  cv::Mat ramp(1, 256, CV_8UC1);
-  for (int i = 0; i < 256; ++i) ramp.at<uint8_t>(0, i) = static_cast<uint8_t>(255 - i);
-  cv::Mat lut;
-  cv::applyColorMap(ramp, lut, cv::COLORMAP_TURBO);
-  return lut;  // 1 x 256 BGR, index = round(255 * t)
+cv::Mat ColourDepthBgr(const ImageF& depth, const SynthPreviewOptions& o) {
+  const ImageU8 rgb = ColourDepth(depth, o.depth_near_m, o.depth_far_m);
+  return ToBgr(rgb);
 }
 
-cv::Mat ColourDepth(const ImageF& depth, const SynthPreviewOptions& o, const cv::Mat& lut) {
-  cv::Mat m(depth.height(), depth.width(), CV_8UC3, cv::Scalar(0, 0, 0));
-  for (int y = 0; y < depth.height(); ++y) {
-    for (int x = 0; x < depth.width(); ++x) {
-      const float d = depth(x, y);
-      if (!(d > 0.f)) continue;
-      const int k = static_cast<int>(std::lround(255.0 * DepthToUnit(d, o)));
-      m.at<cv::Vec3b>(y, x) = lut.at<cv::Vec3b>(0, k);
-    }
-  }
-  return m;
+cv::Scalar ScaleColourBgr(double t) {
+  uint8_t rgb[3];
+  DepthScaleColour(t, rgb);
+  return cv::Scalar(rgb[2], rgb[1], rgb[0]);
 }
 
 void PutText(cv::Mat& img, const std::string& text, cv::Point at, double scale,
@@ -103,7 +93,6 @@ ImageU8 RenderSyntheticPreview(const SyntheticSequence& sequence, const SynthPre
   const int width = margin + left_w + 2 * margin + map_size + margin;
   const int height = header + map_size + margin;
   cv::Mat canvas(height, width, CV_8UC3, kBackground);
-  const cv::Mat lut = TurboLut();
 
   // Title.
   const SyntheticOptions& so = sequence.options();
@@ -120,7 +109,7 @@ ImageU8 RenderSyntheticPreview(const SyntheticSequence& sequence, const SynthPre
     const SyntheticFrame frame = sequence.RenderFrame(indices[k], o.num_threads);
     const int y0 = header + k * (h + gap + label_h);
     ToBgr(frame.rgb).copyTo(canvas(cv::Rect(margin, y0, w, h)));
-    ColourDepth(frame.depth, o, lut).copyTo(canvas(cv::Rect(margin + w + gap, y0, w, h)));
+    ColourDepthBgr(frame.depth, o).copyTo(canvas(cv::Rect(margin + w + gap, y0, w, h)));
     const std::string tag = "#" + std::to_string(k + 1) + "  frame " + std::to_string(indices[k]);
     PutText(canvas, tag, cv::Point(margin + 6, y0 + 18), 0.5, kText, 1);
     PutText(canvas, "depth", cv::Point(margin + w + gap + 6, y0 + 18), 0.5, kText, 1);
@@ -131,7 +120,7 @@ ImageU8 RenderSyntheticPreview(const SyntheticSequence& sequence, const SynthPre
     const int x0 = margin + w + gap, y0 = header + shown * (h + gap) + 8, bw = w, bh = 14;
     for (int x = 0; x < bw; ++x) {
       const int k = static_cast<int>(std::lround(255.0 * x / (bw - 1)));
-      cv::line(canvas, {x0 + x, y0}, {x0 + x, y0 + bh}, lut.at<cv::Vec3b>(0, k));
+      cv::line(canvas, {x0 + x, y0}, {x0 + x, y0 + bh}, ScaleColourBgr(k / 255.0));
     }
     cv::rectangle(canvas, cv::Rect(x0 - 1, y0 - 1, bw + 2, bh + 2), kDimText, 1);
     for (double d : {2.0, 5.0, 10.0, 20.0, 50.0, 100.0, 150.0, 200.0}) {

@@ -1,0 +1,247 @@
+#include "dfo_core/plane_sweep.h"
+
+#include <algorithm>
+#include <cmath>
+#include <limits>
+#include <sstream>
+#include <thread>
+
+#include "dfo_core/error.h"
+
+namespace dfo {
+namespace {
+
+template <typename T>
+void CheckField(bool ok, const char* field, const T& value, const char* rule) {
+  if (ok) return;
+  std::ostringstream msg;
+  msg << "plane sweep: " << field << " = " << value << " violates " << rule;
+  throw ConfigError(msg.str());
+}
+
+// Summed-area table of a W x H image: (W + 1) x (H + 1) entries, S(x, y) = sum over [0, x) x
+// [0, y).
+class Integral {
+ public:
+  void Reset(int width, int height) {
+    width_ = width;
+    sums_.assign(static_cast<size_t>(width + 1) * (height + 1), 0.0);
+  }
+  // Fills from values(x, y) given row by row.
+  template <typename F>
+  void Build(int height, F&& value) {
+    const int stride = width_ + 1;
+    for (int y = 0; y < height; ++y) {
+      double row = 0.0;
+      double* out = &sums_[static_cast<size_t>(y + 1) * stride + 1];
+      const double* above = &sums_[static_cast<size_t>(y) * stride + 1];
+      for (int x = 0; x < width_; ++x) {
+        row += value(x, y);
+        out[x] = above[x] + row;
+      }
+    }
+  }
+  // Sum over the window [x - r, x + r] x [y - r, y + r] (inside the image).
+  double Window(int x, int y, int r) const {
+    const int stride = width_ + 1;
+    const size_t x0 = x - r, x1 = x + r + 1, y0 = y - r, y1 = y + r + 1;
+    return sums_[y1 * stride + x1] - sums_[y0 * stride + x1] - sums_[y1 * stride + x0] +
+           sums_[y0 * stride + x0];
+  }
+
+ private:
+  int width_ = 0;
+  std::vector<double> sums_;
+};
+
+}  // namespace
+
+void PlaneSweepOptions::Check() const {
+  CheckField(std::isfinite(min_depth_m) && min_depth_m > 0.0, "min_depth_m", min_depth_m, "> 0");
+  CheckField(std::isfinite(max_depth_m) && max_depth_m > min_depth_m, "max_depth_m", max_depth_m,
+             "> min_depth_m");
+  CheckField(num_depths >= 8 && num_depths <= 4096, "num_depths", num_depths, "in [8, 4096]");
+  CheckField(window_radius >= 1 && window_radius <= 16, "window_radius", window_radius,
+             "in [1, 16]");
+  CheckField(std::isfinite(max_cost) && max_cost > 0.0 && max_cost <= 2.0, "max_cost", max_cost,
+             "in (0, 2]");
+  CheckField(std::isfinite(uniqueness) && uniqueness >= 1.0, "uniqueness", uniqueness, ">= 1");
+  CheckField(std::isfinite(min_texture) && min_texture >= 0.0, "min_texture", min_texture, ">= 0");
+  CheckField(std::isfinite(min_epipolar_px) && min_epipolar_px >= 0.0, "min_epipolar_px",
+             min_epipolar_px, ">= 0");
+  CheckField(min_views >= 1, "min_views", min_views, ">= 1");
+  CheckField(num_threads >= 1 && num_threads <= 256, "num_threads", num_threads, "in [1, 256]");
+}
+
+PlaneSweepResult PlaneSweepDepth(const ImageF& reference, const PinholeCamera& camera,
+                                 const std::vector<StereoView>& views,
+                                 const PlaneSweepOptions& options) {
+  options.Check();
+  const int w = camera.width, h = camera.height;
+  const auto check_image = [&](const ImageF* image, const std::string& what) {
+    if (image == nullptr) throw InputError("plane sweep: " + what + " has no image");
+    if (image->width() != w || image->height() != h || image->channels() != 1) {
+      std::ostringstream msg;
+      msg << "plane sweep: " << what << " is " << image->width() << "x" << image->height() << "x"
+          << image->channels() << ", the camera " << w << "x" << h << "x1";
+      throw InputError(msg.str());
+    }
+  };
+  check_image(&reference, "the reference");
+  for (size_t v = 0; v < views.size(); ++v)
+    check_image(views[v].image, "view " + std::to_string(v));
+  if (static_cast<int>(views.size()) < options.min_views) {
+    throw InputError("plane sweep: " + std::to_string(views.size()) + " views, min_views " +
+                     std::to_string(options.min_views));
+  }
+
+  const int r = options.window_radius;
+  const double area = (2.0 * r + 1.0) * (2.0 * r + 1.0);
+  const size_t n = static_cast<size_t>(w) * h;
+  const auto index = [w](int x, int y) { return static_cast<size_t>(y) * w + x; };
+  const bool inside_window = w > 2 * r && h > 2 * r;
+
+  // The reference window's mean and standard deviation.
+  Integral ref_sum, ref_sq;
+  ref_sum.Reset(w, h);
+  ref_sq.Reset(w, h);
+  ref_sum.Build(h, [&](int x, int y) { return double(reference(x, y)); });
+  ref_sq.Build(h, [&](int x, int y) { return double(reference(x, y)) * reference(x, y); });
+  std::vector<double> ref_mean(n, 0.0), ref_std(n, 0.0);
+  for (int y = r; inside_window && y < h - r; ++y) {
+    for (int x = r; x < w - r; ++x) {
+      const double m = ref_sum.Window(x, y, r) / area;
+      ref_mean[index(x, y)] = m;
+      ref_std[index(x, y)] = std::sqrt(std::max(ref_sq.Window(x, y, r) / area - m * m, 0.0));
+    }
+  }
+
+  // Per view: K R ray of every pixel and K t, so that the pixel at inverse depth rho lands on
+  // (A + rho B) projected.
+  const Eigen::Matrix3d K = camera.K();
+  std::vector<std::vector<Eigen::Vector3d>> a(views.size());
+  std::vector<Eigen::Vector3d> b(views.size());
+  for (size_t v = 0; v < views.size(); ++v) {
+    const Eigen::Matrix3d KR = K * views[v].view_from_ref.so3().Matrix();
+    b[v] = K * views[v].view_from_ref.translation();
+    a[v].resize(n);
+    for (int y = 0; y < h; ++y) {
+      for (int x = 0; x < w; ++x) {
+        a[v][index(x, y)] = KR * camera.Unproject(Eigen::Vector2d(x, y), 1.0);
+      }
+    }
+  }
+  const double rho_min = 1.0 / options.max_depth_m, rho_max = 1.0 / options.min_depth_m;
+  const int num_depths = options.num_depths;
+  const auto rho_of = [&](double k) {
+    return rho_min + (rho_max - rho_min) * k / (num_depths - 1);
+  };
+
+  // Longest epipolar segment of the depth range over the views.
+  std::vector<float> span(n, 0.0f);
+  for (size_t v = 0; v < views.size(); ++v) {
+    for (size_t p = 0; p < n; ++p) {
+      const Eigen::Vector3d near = a[v][p] + rho_max * b[v], far = a[v][p] + rho_min * b[v];
+      if (!(near.z() > 0.0) || !(far.z() > 0.0)) continue;
+      const double length = (near.head<2>() / near.z() - far.head<2>() / far.z()).norm();
+      if (std::isfinite(length)) span[p] = std::max(span[p], static_cast<float>(length));
+    }
+  }
+
+  // Cost volume: mean over the views that see the whole window of 1 - ZNCC; +inf below
+  // min_views.
+  constexpr float kNone = std::numeric_limits<float>::infinity();
+  std::vector<float> cost(static_cast<size_t>(num_depths) * n, kNone);
+  const auto sweep = [&](int first, int step) {
+    std::vector<float> warped(n), valid(n), sum(n), count(n);
+    Integral s_w, s_ww, s_rw, s_valid;
+    for (Integral* i : {&s_w, &s_ww, &s_rw, &s_valid}) i->Reset(w, h);
+    for (int k = first; k < num_depths; k += step) {
+      const double rho = rho_of(k);
+      std::fill(sum.begin(), sum.end(), 0.0f);
+      std::fill(count.begin(), count.end(), 0.0f);
+      for (size_t v = 0; v < views.size(); ++v) {
+        const ImageF& image = *views[v].image;
+        for (size_t p = 0; p < n; ++p) {
+          const Eigen::Vector3d q = a[v][p] + rho * b[v];
+          warped[p] = 0.0f;
+          valid[p] = 0.0f;
+          if (!(q.z() > 0.0)) continue;
+          const double u = q.x() / q.z(), t = q.y() / q.z();
+          if (!(u >= 0.0 && t >= 0.0 && u <= w - 1.0 && t <= h - 1.0)) continue;
+          warped[p] = image.Bilinear(static_cast<float>(u), static_cast<float>(t));
+          valid[p] = 1.0f;
+        }
+        s_w.Build(h, [&](int x, int y) { return double(warped[index(x, y)]); });
+        s_ww.Build(h, [&](int x, int y) {
+          const double value = warped[index(x, y)];
+          return value * value;
+        });
+        s_rw.Build(h, [&](int x, int y) { return double(warped[index(x, y)]) * reference(x, y); });
+        s_valid.Build(h, [&](int x, int y) { return double(valid[index(x, y)]); });
+        for (int y = r; inside_window && y < h - r; ++y) {
+          for (int x = r; x < w - r; ++x) {
+            const size_t p = index(x, y);
+            if (s_valid.Window(x, y, r) < area - 0.5 || !(ref_std[p] > 0.0)) continue;
+            const double mean = s_w.Window(x, y, r) / area;
+            const double var = s_ww.Window(x, y, r) / area - mean * mean;
+            if (!(var > 1e-6)) continue;
+            const double covariance = s_rw.Window(x, y, r) / area - mean * ref_mean[p];
+            const double zncc = covariance / (ref_std[p] * std::sqrt(var));
+            sum[p] += static_cast<float>(1.0 - std::clamp(zncc, -1.0, 1.0));
+            count[p] += 1.0f;
+          }
+        }
+      }
+      float* slice = &cost[static_cast<size_t>(k) * n];
+      for (size_t p = 0; p < n; ++p) {
+        if (count[p] >= options.min_views) slice[p] = sum[p] / count[p];
+      }
+    }
+  };
+  const int threads = std::min(options.num_threads, num_depths);
+  if (threads <= 1) {
+    sweep(0, 1);
+  } else {
+    std::vector<std::thread> pool;
+    for (int t = 0; t < threads; ++t) pool.emplace_back(sweep, t, threads);
+    for (std::thread& thread : pool) thread.join();
+  }
+
+  PlaneSweepResult result;
+  result.depth = ImageF(w, h, 1, 0.0f);
+  size_t confident = 0;
+  const auto at = [&](int k, size_t p) { return cost[static_cast<size_t>(k) * n + p]; };
+  for (size_t p = 0; p < n; ++p) {
+    if (ref_std[p] < options.min_texture || span[p] < options.min_epipolar_px) continue;
+    int best = -1;
+    for (int k = 0; k < num_depths; ++k) {
+      if (at(k, p) < kNone && (best < 0 || at(k, p) < at(best, p))) best = k;
+    }
+    if (best <= 0 || best >= num_depths - 1) continue;
+    const double c_best = at(best, p);
+    if (!(c_best <= options.max_cost)) continue;
+    const double c_left = at(best - 1, p), c_right = at(best + 1, p);
+    if (!std::isfinite(c_left) || !std::isfinite(c_right)) continue;
+    double second = kNone;
+    for (int k = 0; k < num_depths; ++k) {
+      if (std::abs(k - best) <= 3) continue;
+      const float c = at(k, p);
+      const bool local_min =
+          (k == 0 || c <= at(k - 1, p)) && (k == num_depths - 1 || c <= at(k + 1, p));
+      if (local_min) second = std::min(second, double(c));
+    }
+    if (!(second >= options.uniqueness * c_best)) continue;
+    const double curvature = c_left - 2.0 * c_best + c_right;
+    const double offset =
+        curvature > 0.0 ? std::clamp(0.5 * (c_left - c_right) / curvature, -0.5, 0.5) : 0.0;
+    const double rho = rho_of(best + offset);
+    if (!(rho > 0.0)) continue;
+    result.depth.vector()[p] = static_cast<float>(1.0 / rho);
+    ++confident;
+  }
+  result.confident_fraction = n > 0 ? static_cast<double>(confident) / n : 0.0;
+  return result;
+}
+
+}  // namespace dfo
