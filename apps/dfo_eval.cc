@@ -100,9 +100,10 @@ constexpr const char* kStereoDepthHelp =
     "Depth maps of a sequence's frames from its ground-truth poses, for depth metrics on real\n"
     "video that has poses but no depth (KITTI odometry): each reference frame is matched against\n"
     "its neighbours by plane-sweep stereo (ZNCC over a window, inverse depths between --min-depth\n"
-    "and --max-depth) at the images' native size, and only confident pixels keep a depth\n"
-    "(dfo_core/plane_sweep.h). Writes DIR/<image name>.png (16-bit, metres x 256, 0 = none; the\n"
-    "format of dfo_train --write-depth, so `dfo_eval depth --gt DIR --pred PRED` compares them)\n"
+    "and --max-depth) at the images' native size (or --size), and only confident pixels keep a\n"
+    "depth (dfo_core/plane_sweep.h). Writes DIR/<image name>.png (16-bit, metres x 256, 0 =\n"
+    "none; the format of dfo_train --write-depth, so `dfo_eval depth --gt DIR --pred PRED`\n"
+    "compares them)\n"
     "and DIR/pictures/<image name>.png (the frame above its depth, log colours 2-150 m).\n"
     "\n"
     "options:\n"
@@ -113,6 +114,8 @@ constexpr const char* kStereoDepthHelp =
     "  --frames A-B           reference frames, recording indices, inclusive (default: all)\n"
     "  --every N              every N-th frame of --frames (default 10)\n"
     "  --neighbours N         views: the frames i-N..i-1 and i+1..i+N that exist (default 3)\n"
+    "  --size WxH             match (and write the maps) at this image size instead of the\n"
+    "                         native one\n"
     "  --min-depth M          nearest depth tried in metres (default 2)\n"
     "  --max-depth M          farthest depth tried in metres (default 120)\n"
     "  --depths N             inverse-depth samples (default 192)\n"
@@ -499,7 +502,7 @@ int RunStereoDepth(int argc, char** argv) {
       "stereo-depth", argc, argv,
       {"--path", "--type", "--sequence", "--camera", "--output", "--frames", "--every",
        "--neighbours", "--min-depth", "--max-depth", "--depths", "--window-radius", "--max-cost",
-       "--uniqueness", "--min-texture", "--min-epipolar", "--threads"},
+       "--uniqueness", "--min-texture", "--min-epipolar", "--threads", "--size"},
       {});
   const auto integer = [&](const std::string& key, int fallback, int min) {
     const double v = opt.Number(key, fallback);
@@ -514,7 +517,18 @@ int RunStereoDepth(int argc, char** argv) {
   dataset.path = opt.Required("--path");
   dataset.sequence = opt.Get("--sequence", dataset.sequence);
   dataset.camera = opt.Get("--camera", "");
-  dataset.keep_native = true;
+  dataset.keep_native = !opt.Has("--size");
+  if (opt.Has("--size")) {
+    const std::string size = opt.Get("--size", "");
+    int width = 0, height = 0;
+    char tail = 0;
+    if (std::sscanf(size.c_str(), "%dx%d%c", &width, &height, &tail) != 2 || width < 16 ||
+        height < 16) {
+      throw UsageError("option --size = '" + size + "' is not WxH with both sides >= 16");
+    }
+    dataset.image_width = width;
+    dataset.image_height = height;
+  }
   const std::string output = opt.Required("--output");
   const int every = integer("--every", 10, 1);
   const int neighbours = integer("--neighbours", 3, 1);

@@ -14,6 +14,20 @@ bool IsFinitePose(const SE3d& pose) {
   return pose.translation().allFinite() && pose.quaternion().coeffs().allFinite();
 }
 
+// The frame's image as grey levels (the mean of its channels).
+ImageF GreyOf(const ImageU8& image) {
+  ImageF grey(image.width(), image.height(), 1, 0.0f);
+  const int channels = image.channels();
+  for (int y = 0; y < image.height(); ++y) {
+    for (int x = 0; x < image.width(); ++x) {
+      float sum = 0.0f;
+      for (int c = 0; c < channels; ++c) sum += image(x, y, c);
+      grey(x, y) = sum / channels;
+    }
+  }
+  return grey;
+}
+
 double MsSince(std::chrono::steady_clock::time_point start) {
   return std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start)
       .count();
@@ -45,6 +59,7 @@ const char* OdometryModeName(OdometryMode mode) {
 void OdometryOptions::Check() const {
   keyframe.Check();
   tracking.Check();
+  stereo.Check();
   if (has_window()) window.Check();
 }
 
@@ -93,6 +108,11 @@ OdometryFrame Odometry::Process(const Frame& frame) {
   const bool tracked_against_reference = frontend_->tracker().has_reference();
   const std::string tracked_depth = reference_depth_;
   out.tracked = frontend_->Process(frame);  // throws on bad input: nothing booked
+  if (window_ && options_.stereo.enabled()) {
+    recent_.push_back(
+        {frame.index, out.tracked.status == TrackingStatus::kLost, GreyOf(frame.image)});
+    while (static_cast<int>(recent_.size()) > options_.stereo.views + 1) recent_.pop_front();
+  }
   out.timings = frontend_->last_timings();
   const TrackedFrame& t = out.tracked;
   // Lost against the keyframe, tracked against the previous frame: that frame becomes a keyframe
@@ -206,6 +226,20 @@ void Odometry::SubmitToWindow(const TrackedFrame& t, KeyframeData* given) {
         WindowToSourceScale(window_->PointsInCamera(data.world_from_cam), data.depth.levels[0],
                             pending->cameras[0], tracking.min_window_points);
   }
+  if (options_.stereo.enabled() && kf.window_scale > 0.0 && !recent_.empty() &&
+      recent_.back().index == t.index && !pending->cameras.empty()) {
+    // The keyframe against the frames before it, at their windowed poses.
+    std::vector<StereoView> views;
+    for (size_t k = 0; k + 1 < recent_.size(); ++k) {
+      if (recent_[k].lost || !poses_.Contains(recent_[k].index)) continue;
+      views.push_back({&recent_[k].grey,
+                       poses_.WindowedPose(recent_[k].index).Inverse() * data.world_from_cam});
+    }
+    kf.stereo = ApplyKeyframeStereo(recent_.back().grey, pending->cameras[0], views,
+                                    kf.window_scale, options_.stereo, &data.depth);
+    // The frames until the next keyframe are tracked against it.
+    if (kf.stereo.num_replaced > 0) frontend_->SetReferenceDepth(t.index, data.depth);
+  }
   if (tracking.initial_depth_scale == "window" && kf.window_scale > 0.0) {
     data.initial_depth_scale = kf.window_scale;  // the depth prior stays toward the source's
     kf.initial_depth_scale = kf.window_scale;
@@ -297,8 +331,7 @@ int Odometry::ApplyPendingSolve(bool wait) {
 }
 
 void Odometry::ChooseTrackingDepth(const PendingSolve& pending,
-                                   const std::vector<Eigen::Vector3d>& points,
-                                   KeyframeRecord* kf) {
+                                   const std::vector<Eigen::Vector3d>& points, KeyframeRecord* kf) {
   const TrackingDepthOptions& tracking = options_.tracking;
   const int t = pending.frame_index;
   const auto set_depth = [&](const DepthPyramid& depth, const char* name) {

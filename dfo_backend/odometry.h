@@ -48,12 +48,14 @@
 #ifndef DFO_BACKEND_ODOMETRY_H_
 #define DFO_BACKEND_ODOMETRY_H_
 
+#include <deque>
 #include <functional>
 #include <memory>
 #include <string>
 #include <vector>
 
 #include "dfo_backend/keyframe_manager.h"
+#include "dfo_backend/keyframe_stereo.h"
 #include "dfo_backend/tracking_depth.h"
 #include "dfo_backend/trajectory_store.h"
 #include "dfo_backend/window_optimizer.h"
@@ -80,6 +82,9 @@ struct OdometryOptions {
   KeyframeOptions keyframe;       // the keyframe manager (frontend reference.policy "external")
   WindowOptions window;           // the sliding window (modes windowed and both)
   TrackingDepthOptions tracking;  // what the tracker aligns with (modes windowed and both)
+  // A new keyframe's depth from stereo against the frames before it (modes windowed and both;
+  // without a window it does nothing).
+  KeyframeStereoOptions stereo;
   // run.backend_thread: window solves run on their own thread, so that a keyframe's solve does
   // not stall the frames behind it; the frames until it finishes are tracked against the
   // keyframe's source depth at the window's scale, and its results (poses, tracking depth) are
@@ -118,6 +123,9 @@ struct KeyframeRecord {
   // started at (TrackingDepthOptions::initial_depth_scale; 1 = the source's depth).
   double window_scale = 0.0;
   double initial_depth_scale = 1.0;
+  // What the keyframe stereo (OdometryOptions::stereo) did to its depth; num_views 0 when it did
+  // not run (off, no window scale yet, fewer than 2 earlier frames with a pose).
+  KeyframeStereoResult stereo;
   // The factor on the steps of the frames tracked against the keyframe's source-based depth in
   // the windowed trajectory (TrackingDepthOptions::rescale_source_steps), set at the keyframe's
   // solve; 0: none (option off, no solve, too few window points, or no frame needs it).
@@ -216,6 +224,13 @@ class Odometry {
   TrackedFrame last_tracked_;  // the previous frame's result (for a re-track's keyframe)
   std::string reference_depth_ = "source";  // what the current reference is tracked against
   std::unique_ptr<PendingSolve> pending_;   // a keyframe's solve not yet applied
+  // The newest frames' grey images (finest level), for the keyframe stereo; only when it is on.
+  struct RecentFrame {
+    int index = 0;
+    bool lost = false;  // its pose is only the last good one: not a view
+    ImageF grey;
+  };
+  std::deque<RecentFrame> recent_;
 };
 
 }  // namespace dfo

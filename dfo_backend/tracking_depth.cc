@@ -4,18 +4,13 @@
 #include <cmath>
 #include <sstream>
 
+#include "dfo_backend/check_key.h"
 #include "dfo_core/error.h"
 
 namespace dfo {
 namespace {
 
-template <typename T>
-void CheckKey(bool ok, const char* key, const T& value, const std::string& rule) {
-  if (ok) return;
-  std::ostringstream msg;
-  msg << key << " = " << value << " violates " << rule;
-  throw ConfigError(msg.str());
-}
+using internal::CheckKey;
 
 // The pixel a camera-frame point falls on (rounded), or false when outside the image.
 bool PixelOf(const Eigen::Vector3d& p, const PinholeCamera& camera, int* x, int* y) {

@@ -170,4 +170,28 @@ const PinholeCamera& ImagePyramid::camera(int l) const {
 
 ImageGradients ImagePyramid::Gradients(int l) const { return ComputeGradients(level(l)); }
 
+ImageF DownsampleDepthHalf(const ImageF& depth_m) {
+  DFO_CHECK(depth_m.channels() == 1 && depth_m.width() >= 2 && depth_m.height() >= 2)
+      << depth_m.width() << "x" << depth_m.height() << "x" << depth_m.channels();
+  const int w = depth_m.width() / 2, h = depth_m.height() / 2;
+  ImageF out(w, h, 1);
+  for (int y = 0; y < h; ++y) {
+    for (int x = 0; x < w; ++x) {
+      float sum = 0.0f;
+      int n = 0;
+      for (int dy = 0; dy < 2; ++dy) {
+        for (int dx = 0; dx < 2; ++dx) {
+          const float d = depth_m(2 * x + dx, 2 * y + dy);
+          if (std::isfinite(d) && d > 0.0f) {
+            sum += d;
+            ++n;
+          }
+        }
+      }
+      out(x, y) = n > 0 ? sum / static_cast<float>(n) : 0.0f;
+    }
+  }
+  return out;
+}
+
 }  // namespace dfo

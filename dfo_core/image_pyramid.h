@@ -31,6 +31,11 @@ struct ImagePyramidOptions {
 // mapping as PinholeCamera::PyramidLevel(1). Throws InputError when the image is smaller than 2x2.
 ImageF DownsampleHalf(const ImageF& image);
 
+// Halves a depth map by validity-aware 2x2 averaging: the output is the mean of the valid
+// (finite, > 0) input depths of the 2x2 block, 0 when none is valid (an invalid 0 is never
+// averaged in). Odd last row/column dropped as DownsampleHalf. Requires a 1-channel map >= 2x2.
+ImageF DownsampleDepthHalf(const ImageF& depth_m);
+
 // Separable Gaussian blur of a one-channel image with clamped borders, kernel radius
 // ceil(3 sigma); sigma > 0.
 ImageF GaussianBlur(const ImageF& image, double sigma);

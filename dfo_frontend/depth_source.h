@@ -13,13 +13,11 @@
 #include "dfo_core/feature_map.h"  // DepthPyramid
 #include "dfo_core/frame.h"
 #include "dfo_core/image.h"
+#include "dfo_core/image_pyramid.h"
 
 namespace dfo {
 
-// Halves a depth map by validity-aware 2x2 averaging: the output is the mean of the valid
-// (finite, > 0) input depths of the 2x2 block, 0 when none is valid (an invalid 0 is never
-// averaged in). Odd last row/column dropped as DownsampleHalf. Requires a 1-channel map >= 2x2.
-ImageF DownsampleDepthHalf(const ImageF& depth_m);
+// DownsampleDepthHalf (validity-aware 2x2 averaging of depth maps): dfo_core/image_pyramid.h.
 
 // Computes depth pyramids from frames. Implementations must be deterministic.
 class DepthSource {

@@ -210,6 +210,33 @@ ConfigSchema BuildSchema() {
       .Min(0)
       .Max(8);
 
+  s.AddSection("stereo",
+               "A new keyframe's depth from stereo against the frames before it, at their "
+               "windowed poses (plane sweep, ZNCC): where it is confident it replaces the depth "
+               "source's, for the window's new points and the tracker. Needs a window (run.mode "
+               "windowed or both); docs/window.md \"Keyframe stereo\".");
+  s.AddInt("stereo.views", 0,
+           "How many of the frames before a new keyframe it is matched against; 0 = off")
+      .Min(0)
+      .Max(12);
+  s.AddInt("stereo.depth_samples", 96,
+           "Inverse depths tried, from 1/12 to 8 times the inverse of the source's median depth")
+      .Min(8)
+      .Max(1024);
+  s.AddInt("stereo.window_radius", 2, "Half side of the ZNCC window in pixels").Min(1).Max(8);
+  s.AddDouble("stereo.min_epipolar_px", 7.0,
+              "A pixel gets a stereo depth only when its depth range spans at least this many "
+              "pixels in some view")
+      .Min(0);
+  s.AddDouble("stereo.max_cost", 0.3, "Largest accepted 1 - mean ZNCC").GreaterThan(0).Max(2);
+  s.AddDouble("stereo.uniqueness", 1.5,
+              "The second local minimum of the cost must be at least this times the best")
+      .Min(1);
+  s.AddDouble("stereo.max_source_ratio", 0.0,
+              "A stereo depth more than this factor from the source's (at the window's scale) is "
+              "not taken; 0 = no limit, else > 1")
+      .Min(0);
+
   s.AddSection("reference",
                "The frontend's own reference-switch rule (any rule that fires switches); used only "
                "when keyframe.decided_by = frontend.");

@@ -89,12 +89,27 @@ TrackingDepthOptions TrackingDepthOptionsFromConfig(const io::Config& config) {
   return o;
 }
 
+KeyframeStereoOptions KeyframeStereoOptionsFromConfig(const io::Config& config) {
+  KeyframeStereoOptions o;
+  o.views = config.GetInt("stereo.views");
+  o.depth_samples = config.GetInt("stereo.depth_samples");
+  o.window_radius = config.GetInt("stereo.window_radius");
+  o.min_epipolar_px = config.GetDouble("stereo.min_epipolar_px");
+  o.max_cost = config.GetDouble("stereo.max_cost");
+  o.uniqueness = config.GetDouble("stereo.uniqueness");
+  o.max_source_ratio = config.GetDouble("stereo.max_source_ratio");
+  o.num_threads = ThreadsFromConfig(config);  // the sweep's result does not depend on it
+  o.Check();
+  return o;
+}
+
 OdometryOptions OdometryOptionsFromConfig(const io::Config& config) {
   OdometryOptions o;
   o.mode = RunModeFromConfig(config);
   o.keyframe = KeyframeOptionsFromConfig(config);
   o.window = WindowOptionsFromConfig(config);
   o.tracking = TrackingDepthOptionsFromConfig(config);
+  o.stereo = KeyframeStereoOptionsFromConfig(config);
   o.backend_thread = config.GetBool("run.backend_thread") && !config.GetBool("run.deterministic");
   o.Check();
   return o;

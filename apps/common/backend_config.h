@@ -46,6 +46,9 @@ std::string ReferencePolicyFromConfig(const io::Config& config);
 // window.initial_depth_scale as TrackingDepthOptions, checked.
 TrackingDepthOptions TrackingDepthOptionsFromConfig(const io::Config& config);
 
+// stereo.* as KeyframeStereoOptions, checked.
+KeyframeStereoOptions KeyframeStereoOptionsFromConfig(const io::Config& config);
+
 // The whole OdometryOptions of a configuration (run.mode, keyframe.*, window.*, backend.*, the
 // tracking depth, run.backend_thread unless run.deterministic), checked.
 OdometryOptions OdometryOptionsFromConfig(const io::Config& config);

@@ -192,6 +192,7 @@ SequenceRunResult RunSequence(const FrameProvider& provider, Odometry* odometry,
         if (odometry->has_window()) {
           previous.keyframe_depth_scale = kf.window_scale;
           previous.windowed_step_scale = kf.step_scale;
+          if (kf.stereo.num_views > 0) previous.keyframe_stereo_fraction = kf.stereo.fraction;
         }
         result.keyframes.push_back(kf);
       }
@@ -201,6 +202,7 @@ SequenceRunResult RunSequence(const FrameProvider& provider, Odometry* odometry,
         if (odometry->has_window()) {
           record.keyframe_depth_scale = kf.window_scale;
           record.windowed_step_scale = kf.step_scale;
+          if (kf.stereo.num_views > 0) record.keyframe_stereo_fraction = kf.stereo.fraction;
         }
       }
       if (out.solved_keyframe >= 0)
@@ -349,12 +351,13 @@ io::JsonValue TrackingDepthToJson(const SequenceRunResult& result) {
   for (const FrameRecord& f : result.frames) {
     if (!f.tracking_depth.empty()) ++frames[f.tracking_depth];
   }
-  std::vector<double> points, covered, scales;
+  std::vector<double> points, covered, scales, stereo;
   io::JsonValue fallbacks = io::JsonValue::Array();
   for (const KeyframeRecord& k : result.keyframes) {
     ++keyframes[k.tracking_depth];
     if (!k.ba_ran) continue;
     if (k.window_scale > 0.0) scales.push_back(k.window_scale);
+    if (k.stereo.num_views > 0) stereo.push_back(k.stereo.fraction);
     if (k.tracking_depth == "window") {
       points.push_back(k.tracking_window_points);
       covered.push_back(k.tracking_covered);
@@ -379,6 +382,7 @@ io::JsonValue TrackingDepthToJson(const SequenceRunResult& result) {
   t.Set("median_window_points", median(points));
   t.Set("median_covered_fraction", median(covered));
   t.Set("median_window_scale", median(scales));
+  t.Set("median_stereo_fraction", median(stereo));
   if (window) t.Set("fallbacks", std::move(fallbacks));
   return t;
 }
@@ -479,7 +483,8 @@ std::vector<std::string> RemoveRunOutputs(const std::string& output_dir) {
 std::string FramesCsvHeader() {
   return "index,timestamp_s,status,reference_index,new_reference,num_points,num_inliers,rmse,"
          "iterations,keyframe,keyframe_reason,load_ms,features_ms,depth_ms,tracking_ms,backend_ms,"
-         "total_ms,tracking_depth,keyframe_depth_scale,lost_cause,windowed_step_scale\n";
+         "total_ms,tracking_depth,keyframe_depth_scale,lost_cause,windowed_step_scale,"
+         "keyframe_stereo_fraction\n";
 }
 
 std::string FramesCsvLine(const FrameRecord& f) {
@@ -497,7 +502,9 @@ std::string FramesCsvLine(const FrameRecord& f) {
          Csv(f.backend_ms, 3) + "," + Csv(f.total_ms, 3) + "," + f.tracking_depth + "," +
          (f.keyframe_depth_scale > 0.0 ? Csv(f.keyframe_depth_scale, 6) : std::string()) + "," +
          LostCauseName(t.lost_cause) + "," +
-         (f.windowed_step_scale > 0.0 ? Csv(f.windowed_step_scale, 6) : std::string()) + "\n";
+         (f.windowed_step_scale > 0.0 ? Csv(f.windowed_step_scale, 6) : std::string()) + "," +
+         (f.keyframe_stereo_fraction >= 0.0 ? Csv(f.keyframe_stereo_fraction, 4) : std::string()) +
+         "\n";
 }
 
 void WriteFramesCsv(const std::string& path, const SequenceRunResult& result) {

@@ -34,7 +34,10 @@
 //                         lost_cause (lost frames: tracking, no_depth or few_points; LostCause),
 //                         windowed_step_scale (keyframes: the factor on the windowed steps of the
 //                         frames tracked against its source-based depth,
-//                         window.rescale_source_steps; empty when none)
+//                         window.rescale_source_steps; empty when none),
+//                         keyframe_stereo_fraction (keyframes the keyframe stereo ran on,
+//                         stereo.views: the share of the finest level's pixels that took the
+//                         stereo depth; empty otherwise)
 //   summary.json          see MakeRunSummary
 //   frontend_trajectory.png  top view of ground truth and Sim3-aligned estimate coloured by ATE
 //                         (only when at least 3 processed frames have ground truth and plot);
@@ -142,6 +145,9 @@ struct FrameRecord {
   // Keyframes: the factor on the windowed steps of the frames tracked against the keyframe's
   // source-based depth (KeyframeRecord::step_scale); 0 otherwise or when none was set.
   double windowed_step_scale = 0.0;
+  // Keyframes whose depth the keyframe stereo changed (stereo.views): the share of the finest
+  // level's pixels that took the stereo depth (KeyframeRecord::stereo); -1 when it did not run.
+  double keyframe_stereo_fraction = -1.0;
   // How the pose store holds the frame before it may become a keyframe: relative to keyframe
   // pose_keyframe_index with kf_from_cam (-1: kf_from_cam is the absolute pose; a frame that
   // became a keyframe by itself, e.g. a restart, keeps -1).
