@@ -10,6 +10,9 @@ models by, from one command:
 - demo: `configs/demo_learned.yaml` with the model on the demo's sequence (sequence 00, seed 1,
   500 frames, as `make demo`): windowed and frontend-only Sim3 ATE;
 - tum: depth of the TUM fr3_cabinet keyframes (../shared/data), AbsRel and median_scale_cv;
+- kitti06_depth, kitti03_depth: depth of real KITTI frames (06: every 5th of the held-out
+  extract; 03: every 20th) against the stereo depth of their ground-truth poses (`dfo_eval
+  stereo-depth`, made into DIR), AbsRel and median_scale_cv with median scaling;
 - kitti06: `configs/kitti.yaml` on KITTI 06 started at each of frames 0-7 to frame 50 (held out):
   geometric means of the windowed and frontend-only Sim3 ATE, frames lost;
 - kitti03: `configs/kitti.yaml` on all 801 frames of KITTI 03 (a training sequence of the
@@ -137,6 +140,14 @@ def main():
             figures["tum"] = depth_figures(runner, model, output, "tum", tum,
                                            os.path.join(tum, "depth"), 5000)
             kitti = os.path.join(SHARED, "kitti")
+            for seq, every in (("06", 5), ("03", 20)):
+                reference = os.path.join(output, f"kitti{seq}_stereo")
+                runner.run(f"kitti{seq}_stereo", "dfo_eval",
+                           ["stereo-depth", "--path", kitti, "--sequence", seq, "--every",
+                            str(every), "--threads", "2", "--output", reference])
+                figures[f"kitti{seq}_depth"] = depth_figures(
+                    runner, model, output, f"kitti{seq}", os.path.join(kitti, "sequences", seq),
+                    reference, 256)
             starts = [run_figures(runner, f"kitti06_{f}-50", "configs/kitti.yaml", output,
                                   [f"dataset.path={kitti}", "dataset.sequence=06",
                                    f"dataset.first={f}", "dataset.last=50",
@@ -169,6 +180,10 @@ def main():
     if "tum" in figures:
         t, k6, k3 = figures["tum"], figures["kitti06_8_starts"], figures["kitti03"]
         print(f"TUM depth (held out): AbsRel {fmt(t['abs_rel'])}, cv {fmt(t['median_scale_cv'])}")
+        for seq, what in (("06", "held out"), ("03", "a fine-tuning sequence")):
+            d = figures[f"kitti{seq}_depth"]
+            print(f"KITTI {seq} depth against ground-truth-pose stereo ({what}): AbsRel "
+                  f"{fmt(d['abs_rel'])}, cv {fmt(d['median_scale_cv'])}")
         print(f"KITTI 06, 8 starts (held out): windowed {fmt(k6['windowed_ate_rmse_gm'])} m, "
               f"frontend-only {fmt(k6['frontend_ate_rmse_gm'])} m (geometric means), "
               f"lost {k6['frames_lost']}")
