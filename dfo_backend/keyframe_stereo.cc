@@ -3,28 +3,30 @@
 #include <algorithm>
 #include <cmath>
 
-#include "dfo_backend/check_key.h"
+#include "dfo_core/check_option.h"
 #include "dfo_core/error.h"
 #include "dfo_core/image_pyramid.h"
 
 namespace dfo {
 
-using internal::CheckKey;
+using internal::CheckOption;
 
 void KeyframeStereoOptions::Check() const {
-  CheckKey(views >= 0 && views <= 12, "stereo.views", views, "in [0, 12]");
-  CheckKey(depth_samples >= 8 && depth_samples <= 1024, "stereo.depth_samples", depth_samples,
-           "in [8, 1024]");
-  CheckKey(window_radius >= 1 && window_radius <= 8, "stereo.window_radius", window_radius,
-           "in [1, 8]");
-  CheckKey(std::isfinite(min_epipolar_px) && min_epipolar_px >= 0.0, "stereo.min_epipolar_px",
-           min_epipolar_px, ">= 0");
-  CheckKey(std::isfinite(max_cost) && max_cost > 0.0 && max_cost <= 2.0, "stereo.max_cost",
-           max_cost, "in (0, 2]");
-  CheckKey(std::isfinite(uniqueness) && uniqueness >= 1.0, "stereo.uniqueness", uniqueness, ">= 1");
-  CheckKey(std::isfinite(max_source_ratio) && (max_source_ratio == 0.0 || max_source_ratio > 1.0),
-           "stereo.max_source_ratio", max_source_ratio, "0 (off) or > 1");
-  CheckKey(num_threads >= 1 && num_threads <= 256, "run.threads", num_threads, "in [1, 256]");
+  CheckOption(views >= 0 && views <= 12, "stereo.views", views, "in [0, 12]");
+  CheckOption(depth_samples >= 8 && depth_samples <= 1024, "stereo.depth_samples", depth_samples,
+              "in [8, 1024]");
+  CheckOption(window_radius >= 1 && window_radius <= 8, "stereo.window_radius", window_radius,
+              "in [1, 8]");
+  CheckOption(std::isfinite(min_epipolar_px) && min_epipolar_px >= 0.0, "stereo.min_epipolar_px",
+              min_epipolar_px, ">= 0");
+  CheckOption(std::isfinite(max_cost) && max_cost > 0.0 && max_cost <= 2.0, "stereo.max_cost",
+              max_cost, "in (0, 2]");
+  CheckOption(std::isfinite(uniqueness) && uniqueness >= 1.0, "stereo.uniqueness", uniqueness,
+              ">= 1");
+  CheckOption(
+      std::isfinite(max_source_ratio) && (max_source_ratio == 0.0 || max_source_ratio > 1.0),
+      "stereo.max_source_ratio", max_source_ratio, "0 (off) or > 1");
+  CheckOption(num_threads >= 1 && num_threads <= 256, "run.threads", num_threads, "in [1, 256]");
 }
 
 KeyframeStereoResult ApplyKeyframeStereo(const ImageF& reference, const PinholeCamera& camera,

@@ -4,13 +4,13 @@
 #include <cmath>
 #include <sstream>
 
-#include "dfo_backend/check_key.h"
+#include "dfo_core/check_option.h"
 #include "dfo_core/error.h"
 
 namespace dfo {
 namespace {
 
-using internal::CheckKey;
+using internal::CheckOption;
 
 // The pixel a camera-frame point falls on (rounded), or false when outside the image.
 bool PixelOf(const Eigen::Vector3d& p, const PinholeCamera& camera, int* x, int* y) {
@@ -25,14 +25,15 @@ bool PixelOf(const Eigen::Vector3d& p, const PinholeCamera& camera, int* x, int*
 }  // namespace
 
 void TrackingDepthOptions::Check() const {
-  CheckKey(depth == "window" || depth == "source", "tracker.depth", depth, "one of window|source");
-  CheckKey(fill == "scaled_source" || fill == "none", "tracker.depth_fill", fill,
-           "one of scaled_source|none");
-  CheckKey(min_window_points >= 1, "tracker.min_window_points", min_window_points, ">= 1");
-  CheckKey(splat_radius_px >= 0 && splat_radius_px <= 8, "tracker.splat_radius_px", splat_radius_px,
-           "in [0, 8]");
-  CheckKey(initial_depth_scale == "window" || initial_depth_scale == "source",
-           "window.initial_depth_scale", initial_depth_scale, "one of window|source");
+  CheckOption(depth == "window" || depth == "source", "tracker.depth", depth,
+              "one of window|source");
+  CheckOption(fill == "scaled_source" || fill == "none", "tracker.depth_fill", fill,
+              "one of scaled_source|none");
+  CheckOption(min_window_points >= 1, "tracker.min_window_points", min_window_points, ">= 1");
+  CheckOption(splat_radius_px >= 0 && splat_radius_px <= 8, "tracker.splat_radius_px",
+              splat_radius_px, "in [0, 8]");
+  CheckOption(initial_depth_scale == "window" || initial_depth_scale == "source",
+              "window.initial_depth_scale", initial_depth_scale, "one of window|source");
 }
 
 double WindowToSourceScale(const std::vector<Eigen::Vector3d>& points, const ImageF& depth,

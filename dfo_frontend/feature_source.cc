@@ -4,9 +4,9 @@
 #include <cmath>
 #include <sstream>
 
+#include "dfo_core/check_option.h"
 #include "dfo_core/error.h"
 #include "dfo_core/image_pyramid.h"
-#include "dfo_frontend/internal/check_util.h"
 
 namespace dfo {
 

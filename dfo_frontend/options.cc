@@ -3,8 +3,8 @@
 #include <cmath>
 #include <string>
 
+#include "dfo_core/check_option.h"
 #include "dfo_frontend/frontend.h"
-#include "dfo_frontend/internal/check_util.h"
 #include "dfo_frontend/reference_options.h"
 #include "dfo_frontend/tracker.h"
 
@@ -79,8 +79,7 @@ void ReferenceOptions::Check() const {
 void FrontendOptions::Check() const {
   CheckOption(features == "handmade" || features == "learned", "frontend.features", features,
               "one of {handmade, learned}");
-  CheckOption(depth == "gt" || depth == "learned", "frontend.depth", depth,
-              "one of {gt, learned}");
+  CheckOption(depth == "gt" || depth == "learned", "frontend.depth", depth, "one of {gt, learned}");
   CheckOption(depth_scale == "none" || depth_scale == "propagate", "frontend.depth_scale",
               depth_scale, "one of {none, propagate}");
   CheckOption(num_threads >= 1, "frontend.num_threads", num_threads, ">= 1");

@@ -6,8 +6,8 @@
 #include <sstream>
 #include <utility>
 
+#include "dfo_core/check_option.h"
 #include "dfo_core/error.h"
-#include "dfo_frontend/internal/check_util.h"
 #include "dfo_frontend/learned/internal/device.h"
 #include "dfo_frontend/learned/internal/model_file.h"
 #include "dfo_frontend/learned/internal/networks.h"
@@ -220,8 +220,8 @@ void LearnedModel::Impl::Run(const Frame& frame, bool want_features, bool want_d
 
   if (model.kind == learned::LoadedModel::Kind::kDfo) {
     if (need_depth) {
-      const bool resize = options.depth_at_model_size &&
-                          (width != o.input_width || height != o.input_height);
+      const bool resize =
+          options.depth_at_model_size && (width != o.input_width || height != o.input_height);
       if (!resize) {
         StoreDepth(frame, model.networks->depth->forward(input).depth);
       } else {
@@ -238,11 +238,11 @@ void LearnedModel::Impl::Run(const Frame& frame, bool want_features, bool want_d
             F::interpolate(input, to_model).contiguous(torch::MemoryFormat::ChannelsLast);
         std::vector<torch::Tensor> levels = model.networks->depth->forward(small).depth;
         for (size_t l = 0; l < levels.size(); ++l) {
-          levels[l] = F::interpolate(levels[l], F::InterpolateFuncOptions()
-                                                    .size(std::vector<int64_t>{height >> l,
-                                                                               width >> l})
-                                                    .mode(torch::kBilinear)
-                                                    .align_corners(false));
+          levels[l] =
+              F::interpolate(levels[l], F::InterpolateFuncOptions()
+                                            .size(std::vector<int64_t>{height >> l, width >> l})
+                                            .mode(torch::kBilinear)
+                                            .align_corners(false));
         }
         StoreDepth(frame, levels);
       }

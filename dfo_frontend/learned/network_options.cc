@@ -4,8 +4,8 @@
 #include <sstream>
 #include <string>
 
+#include "dfo_core/check_option.h"
 #include "dfo_core/error.h"
-#include "dfo_frontend/internal/check_util.h"
 
 namespace dfo::learned {
 

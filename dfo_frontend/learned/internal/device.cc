@@ -2,15 +2,15 @@
 
 #include <torch/cuda.h>
 
+#include "dfo_core/check_option.h"
 #include "dfo_core/device_name.h"
 #include "dfo_core/error.h"
-#include "dfo_frontend/internal/check_util.h"
 
 namespace dfo::learned {
 
 void CheckDeviceName(const std::string& key, const std::string& name) {
   ::dfo::internal::CheckOption(::dfo::IsDeviceName(name), key, "\"" + name + "\"",
-                              ::dfo::kDeviceNameRule);
+                               ::dfo::kDeviceNameRule);
 }
 
 c10::Device ResolveDevice(const std::string& key, const std::string& name) {

@@ -1,6 +1,6 @@
-// Small helpers for options' Check() messages ("tracker.patch_size = 4 violates odd").
-#ifndef DFO_FRONTEND_INTERNAL_CHECK_UTIL_H_
-#define DFO_FRONTEND_INTERNAL_CHECK_UTIL_H_
+// Options' Check() messages, one form for every module ("tracker.patch_size = 4 violates odd").
+#ifndef DFO_CORE_CHECK_OPTION_H_
+#define DFO_CORE_CHECK_OPTION_H_
 
 #include <sstream>
 #include <string>
@@ -20,4 +20,4 @@ void CheckOption(bool ok, const std::string& field, const T& value, const std::s
 
 }  // namespace dfo::internal
 
-#endif  // DFO_FRONTEND_INTERNAL_CHECK_UTIL_H_
+#endif  // DFO_CORE_CHECK_OPTION_H_
