@@ -103,8 +103,8 @@ constexpr const char* kStereoDepthHelp =
     "and --max-depth) at the images' native size (or --size), and only confident pixels keep a\n"
     "depth (dfo_core/plane_sweep.h). Writes DIR/<image name>.png (16-bit, metres x 256, 0 =\n"
     "none; the format of dfo_train --write-depth, so `dfo_eval depth --gt DIR --pred PRED`\n"
-    "compares them)\n"
-    "and DIR/pictures/<image name>.png (the frame above its depth, log colours 2-150 m).\n"
+    "compares them) and DIR/pictures/<image name>.png (the frame above its depth, log colours\n"
+    "2-150 m).\n"
     "\n"
     "options:\n"
     "  --path ROOT            dataset root (as dataset.path)\n"
@@ -595,13 +595,13 @@ int RunStereoDepth(int argc, char** argv) {
     const std::string name = fs::path(sequence.frame(i).image_path).stem().string() + ".png";
     io::WriteDepthPng((fs::path(output) / name).string(), result.depth, 256.0);
     // The picture: the frame (grey) above its depth.
-    const ImageU8 grey = sequence.LoadImage(i);
+    const ImageF& grey = image_of(i);
     const ImageU8 colour = io::ColourDepth(result.depth, 2.0, 150.0);
     ImageU8 picture(camera.width, 2 * camera.height, 3, 0);
     for (int y = 0; y < camera.height; ++y) {
       for (int x = 0; x < camera.width; ++x) {
         for (int c = 0; c < 3; ++c) {
-          picture(x, y, c) = grey(x, y, grey.channels() == 3 ? c : 0);
+          picture(x, y, c) = static_cast<uint8_t>(grey(x, y, grey.channels() == 3 ? c : 0));
           picture(x, y + camera.height, c) = colour(x, y, c);
         }
       }

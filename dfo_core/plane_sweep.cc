@@ -4,20 +4,14 @@
 #include <cmath>
 #include <limits>
 #include <sstream>
+#include <string>
 #include <thread>
 
+#include "dfo_core/check_option.h"
 #include "dfo_core/error.h"
 
 namespace dfo {
 namespace {
-
-template <typename T>
-void CheckField(bool ok, const char* field, const T& value, const char* rule) {
-  if (ok) return;
-  std::ostringstream msg;
-  msg << "plane sweep: " << field << " = " << value << " violates " << rule;
-  throw ConfigError(msg.str());
-}
 
 // Summed-area table of a W x H image: (W + 1) x (H + 1) entries, S(x, y) = sum over [0, x) x
 // [0, y).
@@ -57,20 +51,25 @@ class Integral {
 }  // namespace
 
 void PlaneSweepOptions::Check() const {
-  CheckField(std::isfinite(min_depth_m) && min_depth_m > 0.0, "min_depth_m", min_depth_m, "> 0");
-  CheckField(std::isfinite(max_depth_m) && max_depth_m > min_depth_m, "max_depth_m", max_depth_m,
-             "> min_depth_m");
-  CheckField(num_depths >= 8 && num_depths <= 4096, "num_depths", num_depths, "in [8, 4096]");
-  CheckField(window_radius >= 1 && window_radius <= 16, "window_radius", window_radius,
-             "in [1, 16]");
-  CheckField(std::isfinite(max_cost) && max_cost > 0.0 && max_cost <= 2.0, "max_cost", max_cost,
-             "in (0, 2]");
-  CheckField(std::isfinite(uniqueness) && uniqueness >= 1.0, "uniqueness", uniqueness, ">= 1");
-  CheckField(std::isfinite(min_texture) && min_texture >= 0.0, "min_texture", min_texture, ">= 0");
-  CheckField(std::isfinite(min_epipolar_px) && min_epipolar_px >= 0.0, "min_epipolar_px",
-             min_epipolar_px, ">= 0");
-  CheckField(min_views >= 1, "min_views", min_views, ">= 1");
-  CheckField(num_threads >= 1 && num_threads <= 256, "num_threads", num_threads, "in [1, 256]");
+  internal::CheckOption(std::isfinite(min_depth_m) && min_depth_m > 0.0, "plane sweep: min_depth_m",
+                        min_depth_m, "> 0");
+  internal::CheckOption(std::isfinite(max_depth_m) && max_depth_m > min_depth_m,
+                        "plane sweep: max_depth_m", max_depth_m, "> min_depth_m");
+  internal::CheckOption(num_depths >= 8 && num_depths <= 4096, "plane sweep: num_depths",
+                        num_depths, "in [8, 4096]");
+  internal::CheckOption(window_radius >= 1 && window_radius <= 16, "plane sweep: window_radius",
+                        window_radius, "in [1, 16]");
+  internal::CheckOption(std::isfinite(max_cost) && max_cost > 0.0 && max_cost <= 2.0,
+                        "plane sweep: max_cost", max_cost, "in (0, 2]");
+  internal::CheckOption(std::isfinite(uniqueness) && uniqueness >= 1.0, "plane sweep: uniqueness",
+                        uniqueness, ">= 1");
+  internal::CheckOption(std::isfinite(min_texture) && min_texture >= 0.0,
+                        "plane sweep: min_texture", min_texture, ">= 0");
+  internal::CheckOption(std::isfinite(min_epipolar_px) && min_epipolar_px >= 0.0,
+                        "plane sweep: min_epipolar_px", min_epipolar_px, ">= 0");
+  internal::CheckOption(min_views >= 1, "plane sweep: min_views", min_views, ">= 1");
+  internal::CheckOption(num_threads >= 1 && num_threads <= 256, "plane sweep: num_threads",
+                        num_threads, "in [1, 256]");
 }
 
 PlaneSweepResult PlaneSweepDepth(const ImageF& reference, const PinholeCamera& camera,
