@@ -48,6 +48,59 @@ class Integral {
   std::vector<double> sums_;
 };
 
+// Summed-area tables of a warped view for the ZNCC windows, in one pass: the warped grey
+// level w, w^2, w times the reference, and whether the pixel was inside the view.
+class WarpIntegral {
+ public:
+  struct Sums {
+    double w = 0.0, ww = 0.0, rw = 0.0, valid = 0.0;
+  };
+  void Reset(int width, int height) {
+    width_ = width;
+    sums_.assign(static_cast<size_t>(width + 1) * (height + 1), Sums());
+  }
+  void Build(int height, const float* warped, const float* valid, const ImageF& reference) {
+    const int stride = width_ + 1;
+    for (int y = 0; y < height; ++y) {
+      Sums row;
+      Sums* out = &sums_[static_cast<size_t>(y + 1) * stride + 1];
+      const Sums* above = &sums_[static_cast<size_t>(y) * stride + 1];
+      const float* wy = warped + static_cast<size_t>(y) * width_;
+      const float* vy = valid + static_cast<size_t>(y) * width_;
+      for (int x = 0; x < width_; ++x) {
+        const double value = wy[x];
+        row.w += value;
+        row.ww += value * value;
+        row.rw += value * reference(x, y);
+        row.valid += vy[x];
+        out[x].w = above[x].w + row.w;
+        out[x].ww = above[x].ww + row.ww;
+        out[x].rw = above[x].rw + row.rw;
+        out[x].valid = above[x].valid + row.valid;
+      }
+    }
+  }
+  // Sums over the window [x - r, x + r] x [y - r, y + r] (inside the image).
+  Sums Window(int x, int y, int r) const {
+    const int stride = width_ + 1;
+    const size_t x0 = x - r, x1 = x + r + 1, y0 = y - r, y1 = y + r + 1;
+    const Sums& a = sums_[y1 * stride + x1];
+    const Sums& b = sums_[y0 * stride + x1];
+    const Sums& c = sums_[y1 * stride + x0];
+    const Sums& d = sums_[y0 * stride + x0];
+    Sums s;
+    s.w = a.w - b.w - c.w + d.w;
+    s.ww = a.ww - b.ww - c.ww + d.ww;
+    s.rw = a.rw - b.rw - c.rw + d.rw;
+    s.valid = a.valid - b.valid - c.valid + d.valid;
+    return s;
+  }
+
+ private:
+  int width_ = 0;
+  std::vector<Sums> sums_;
+};
+
 }  // namespace
 
 void PlaneSweepOptions::Check() const {
@@ -147,49 +200,65 @@ PlaneSweepResult PlaneSweepDepth(const ImageF& reference, const PinholeCamera& c
     }
   }
 
+  // Only pixels that can get a depth are matched (texture and parallax are known before the
+  // sweep), and a view is warped only where their windows need it.
+  std::vector<unsigned char> wanted(n, 0), needed(n, 0);
+  std::vector<int> wanted_pixels;
+  for (int y = r; inside_window && y < h - r; ++y) {
+    for (int x = r; x < w - r; ++x) {
+      const size_t p = index(x, y);
+      if (!(ref_std[p] > 0.0) || ref_std[p] < options.min_texture ||
+          span[p] < options.min_epipolar_px) {
+        continue;
+      }
+      wanted[p] = 1;
+      wanted_pixels.push_back(static_cast<int>(p));
+      for (int dy = -r; dy <= r; ++dy) {
+        std::fill_n(&needed[index(x - r, y + dy)], 2 * r + 1, static_cast<unsigned char>(1));
+      }
+    }
+  }
+  std::vector<int> needed_pixels;
+  for (size_t p = 0; p < n; ++p) {
+    if (needed[p]) needed_pixels.push_back(static_cast<int>(p));
+  }
+
   // Cost volume: mean over the views that see the whole window of 1 - ZNCC; +inf below
   // min_views.
   constexpr float kNone = std::numeric_limits<float>::infinity();
   std::vector<float> cost(static_cast<size_t>(num_depths) * n, kNone);
   const auto sweep = [&](int first, int step) {
     std::vector<float> warped(n), valid(n), sum(n), count(n);
-    Integral s_w, s_ww, s_rw, s_valid;
-    for (Integral* i : {&s_w, &s_ww, &s_rw, &s_valid}) i->Reset(w, h);
+    WarpIntegral sums;
+    sums.Reset(w, h);
     for (int k = first; k < num_depths; k += step) {
       const double rho = rho_of(k);
       std::fill(sum.begin(), sum.end(), 0.0f);
       std::fill(count.begin(), count.end(), 0.0f);
       for (size_t v = 0; v < views.size(); ++v) {
         const ImageF& image = *views[v].image;
-        for (size_t p = 0; p < n; ++p) {
+        std::fill(warped.begin(), warped.end(), 0.0f);
+        std::fill(valid.begin(), valid.end(), 0.0f);
+        for (const int p : needed_pixels) {
           const Eigen::Vector3d q = a[v][p] + rho * b[v];
-          warped[p] = 0.0f;
-          valid[p] = 0.0f;
           if (!(q.z() > 0.0)) continue;
           const double u = q.x() / q.z(), t = q.y() / q.z();
           if (!(u >= 0.0 && t >= 0.0 && u <= w - 1.0 && t <= h - 1.0)) continue;
           warped[p] = image.Bilinear(static_cast<float>(u), static_cast<float>(t));
           valid[p] = 1.0f;
         }
-        s_w.Build(h, [&](int x, int y) { return double(warped[index(x, y)]); });
-        s_ww.Build(h, [&](int x, int y) {
-          const double value = warped[index(x, y)];
-          return value * value;
-        });
-        s_rw.Build(h, [&](int x, int y) { return double(warped[index(x, y)]) * reference(x, y); });
-        s_valid.Build(h, [&](int x, int y) { return double(valid[index(x, y)]); });
-        for (int y = r; inside_window && y < h - r; ++y) {
-          for (int x = r; x < w - r; ++x) {
-            const size_t p = index(x, y);
-            if (s_valid.Window(x, y, r) < area - 0.5 || !(ref_std[p] > 0.0)) continue;
-            const double mean = s_w.Window(x, y, r) / area;
-            const double var = s_ww.Window(x, y, r) / area - mean * mean;
-            if (!(var > 1e-6)) continue;
-            const double covariance = s_rw.Window(x, y, r) / area - mean * ref_mean[p];
-            const double zncc = covariance / (ref_std[p] * std::sqrt(var));
-            sum[p] += static_cast<float>(1.0 - std::clamp(zncc, -1.0, 1.0));
-            count[p] += 1.0f;
-          }
+        sums.Build(h, warped.data(), valid.data(), reference);
+        for (const int p : wanted_pixels) {
+          const int x = p % w, y = p / w;
+          const WarpIntegral::Sums window = sums.Window(x, y, r);
+          if (window.valid < area - 0.5) continue;
+          const double mean = window.w / area;
+          const double var = window.ww / area - mean * mean;
+          if (!(var > 1e-6)) continue;
+          const double covariance = window.rw / area - mean * ref_mean[p];
+          const double zncc = covariance / (ref_std[p] * std::sqrt(var));
+          sum[p] += static_cast<float>(1.0 - std::clamp(zncc, -1.0, 1.0));
+          count[p] += 1.0f;
         }
       }
       float* slice = &cost[static_cast<size_t>(k) * n];
@@ -211,8 +280,7 @@ PlaneSweepResult PlaneSweepDepth(const ImageF& reference, const PinholeCamera& c
   result.depth = ImageF(w, h, 1, 0.0f);
   size_t confident = 0;
   const auto at = [&](int k, size_t p) { return cost[static_cast<size_t>(k) * n + p]; };
-  for (size_t p = 0; p < n; ++p) {
-    if (ref_std[p] < options.min_texture || span[p] < options.min_epipolar_px) continue;
+  for (const int p : wanted_pixels) {
     int best = -1;
     for (int k = 0; k < num_depths; ++k) {
       if (at(k, p) < kNone && (best < 0 || at(k, p) < at(best, p))) best = k;
