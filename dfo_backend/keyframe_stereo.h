@@ -31,7 +31,7 @@ struct KeyframeStereoOptions {
   int views = 0;
   // stereo.depth_samples: inverse depths tried, between 1/12 and 8 times the inverse of the
   // source's median depth at the window's scale.
-  int depth_samples = 96;
+  int depth_samples = 64;
   // stereo.window_radius: half side of the ZNCC window in pixels.
   int window_radius = 2;
   // stereo.min_epipolar_px: a pixel gets a stereo depth only when its depth range spans at least

@@ -219,7 +219,7 @@ ConfigSchema BuildSchema() {
            "How many of the frames before a new keyframe it is matched against; 0 = off")
       .Min(0)
       .Max(12);
-  s.AddInt("stereo.depth_samples", 96,
+  s.AddInt("stereo.depth_samples", 64,
            "Inverse depths tried, from 1/12 to 8 times the inverse of the source's median depth")
       .Min(8)
       .Max(1024);

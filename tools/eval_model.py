@@ -13,7 +13,8 @@ models by, from one command:
 - kitti06_depth, kitti03_depth: depth of real KITTI frames (06: every 5th of the held-out
   extract; 03: every 20th) against the stereo depth of their ground-truth poses (`dfo_eval
   stereo-depth`, made into DIR), AbsRel and median_scale_cv with median scaling;
-- kitti06: `configs/kitti.yaml` on KITTI 06 started at each of frames 0-7 to frame 50 (held out):
+- kitti06: `configs/kitti.yaml` (its keyframe stereo included, `learned.model` set to the model)
+  on KITTI 06 started at each of frames 0-7 to frame 50 (held out):
   geometric means of the windowed and frontend-only Sim3 ATE, frames lost;
 - kitti03: `configs/kitti.yaml` on all 801 frames of KITTI 03 (a training sequence of the
   fine-tuning runs): Sim3 ATE and KITTI t_rel of both trajectories.
