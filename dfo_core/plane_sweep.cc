@@ -236,7 +236,7 @@ PlaneSweepResult PlaneSweepDepth(const ImageF& reference, const PinholeCamera& c
       std::fill(sum.begin(), sum.end(), 0.0f);
       std::fill(count.begin(), count.end(), 0.0f);
       for (size_t v = 0; v < views.size(); ++v) {
-        const ImageF& image = *views[v].image;
+        const float* pixels = views[v].image->vector().data();
         std::fill(warped.begin(), warped.end(), 0.0f);
         std::fill(valid.begin(), valid.end(), 0.0f);
         for (const int p : needed_pixels) {
@@ -244,7 +244,15 @@ PlaneSweepResult PlaneSweepDepth(const ImageF& reference, const PinholeCamera& c
           if (!(q.z() > 0.0)) continue;
           const double u = q.x() / q.z(), t = q.y() / q.z();
           if (!(u >= 0.0 && t >= 0.0 && u <= w - 1.0 && t <= h - 1.0)) continue;
-          warped[p] = image.Bilinear(static_cast<float>(u), static_cast<float>(t));
+          // ImageF::Bilinear's arithmetic, with floor as a cast (u, t >= 0): no libm call.
+          const float fu = static_cast<float>(u), ft = static_cast<float>(t);
+          const int x0 = static_cast<int>(fu), y0 = static_cast<int>(ft);
+          const int x1 = x0 + 1 < w ? x0 + 1 : x0, y1 = y0 + 1 < h ? y0 + 1 : y0;
+          const float ax = fu - static_cast<float>(x0), ay = ft - static_cast<float>(y0);
+          const float* row0 = pixels + static_cast<size_t>(y0) * w;
+          const float* row1 = pixels + static_cast<size_t>(y1) * w;
+          warped[p] = (1.0f - ay) * ((1.0f - ax) * row0[x0] + ax * row0[x1]) +
+                      ay * ((1.0f - ax) * row1[x0] + ax * row1[x1]);
           valid[p] = 1.0f;
         }
         sums.Build(h, warped.data(), valid.data(), reference);
