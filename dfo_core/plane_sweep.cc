@@ -202,7 +202,7 @@ PlaneSweepResult PlaneSweepDepth(const ImageF& reference, const PinholeCamera& c
 
   // Only pixels that can get a depth are matched (texture and parallax are known before the
   // sweep), and a view is warped only where their windows need it.
-  std::vector<unsigned char> wanted(n, 0), needed(n, 0);
+  std::vector<unsigned char> needed(n, 0);
   std::vector<int> wanted_pixels;
   for (int y = r; inside_window && y < h - r; ++y) {
     for (int x = r; x < w - r; ++x) {
@@ -211,7 +211,6 @@ PlaneSweepResult PlaneSweepDepth(const ImageF& reference, const PinholeCamera& c
           span[p] < options.min_epipolar_px) {
         continue;
       }
-      wanted[p] = 1;
       wanted_pixels.push_back(static_cast<int>(p));
       for (int dy = -r; dy <= r; ++dy) {
         std::fill_n(&needed[index(x - r, y + dy)], 2 * r + 1, static_cast<unsigned char>(1));
