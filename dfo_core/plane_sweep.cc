@@ -1,6 +1,7 @@
 #include "dfo_core/plane_sweep.h"
 
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <limits>
 #include <sstream>
@@ -13,70 +14,30 @@
 namespace dfo {
 namespace {
 
-// Summed-area table of a W x H image: (W + 1) x (H + 1) entries, S(x, y) = sum over [0, x) x
-// [0, y).
-class Integral {
+// N summed-area tables of a W x H image, built in one pass: (W + 1) x (H + 1) entries,
+// S_c(x, y) = sum of channel c over [0, x) x [0, y).
+template <int N>
+class SummedAreas {
  public:
+  using Sums = std::array<double, N>;
   void Reset(int width, int height) {
     width_ = width;
-    sums_.assign(static_cast<size_t>(width + 1) * (height + 1), 0.0);
+    sums_.assign(static_cast<size_t>(width + 1) * (height + 1), Sums{});
   }
-  // Fills from values(x, y) given row by row.
+  // Fills from values(x, y) (the N channels' values at a pixel), row by row.
   template <typename F>
-  void Build(int height, F&& value) {
+  void Build(int height, F&& values) {
     const int stride = width_ + 1;
     for (int y = 0; y < height; ++y) {
-      double row = 0.0;
-      double* out = &sums_[static_cast<size_t>(y + 1) * stride + 1];
-      const double* above = &sums_[static_cast<size_t>(y) * stride + 1];
-      for (int x = 0; x < width_; ++x) {
-        row += value(x, y);
-        out[x] = above[x] + row;
-      }
-    }
-  }
-  // Sum over the window [x - r, x + r] x [y - r, y + r] (inside the image).
-  double Window(int x, int y, int r) const {
-    const int stride = width_ + 1;
-    const size_t x0 = x - r, x1 = x + r + 1, y0 = y - r, y1 = y + r + 1;
-    return sums_[y1 * stride + x1] - sums_[y0 * stride + x1] - sums_[y1 * stride + x0] +
-           sums_[y0 * stride + x0];
-  }
-
- private:
-  int width_ = 0;
-  std::vector<double> sums_;
-};
-
-// Summed-area tables of a warped view for the ZNCC windows, in one pass: the warped grey
-// level w, w^2, w times the reference, and whether the pixel was inside the view.
-class WarpIntegral {
- public:
-  struct Sums {
-    double w = 0.0, ww = 0.0, rw = 0.0, valid = 0.0;
-  };
-  void Reset(int width, int height) {
-    width_ = width;
-    sums_.assign(static_cast<size_t>(width + 1) * (height + 1), Sums());
-  }
-  void Build(int height, const float* warped, const float* valid, const ImageF& reference) {
-    const int stride = width_ + 1;
-    for (int y = 0; y < height; ++y) {
-      Sums row;
+      Sums row{};
       Sums* out = &sums_[static_cast<size_t>(y + 1) * stride + 1];
       const Sums* above = &sums_[static_cast<size_t>(y) * stride + 1];
-      const float* wy = warped + static_cast<size_t>(y) * width_;
-      const float* vy = valid + static_cast<size_t>(y) * width_;
       for (int x = 0; x < width_; ++x) {
-        const double value = wy[x];
-        row.w += value;
-        row.ww += value * value;
-        row.rw += value * reference(x, y);
-        row.valid += vy[x];
-        out[x].w = above[x].w + row.w;
-        out[x].ww = above[x].ww + row.ww;
-        out[x].rw = above[x].rw + row.rw;
-        out[x].valid = above[x].valid + row.valid;
+        const Sums v = values(x, y);
+        for (int c = 0; c < N; ++c) {
+          row[c] += v[c];
+          out[x][c] = above[x][c] + row[c];
+        }
       }
     }
   }
@@ -89,10 +50,7 @@ class WarpIntegral {
     const Sums& c = sums_[y1 * stride + x0];
     const Sums& d = sums_[y0 * stride + x0];
     Sums s;
-    s.w = a.w - b.w - c.w + d.w;
-    s.ww = a.ww - b.ww - c.ww + d.ww;
-    s.rw = a.rw - b.rw - c.rw + d.rw;
-    s.valid = a.valid - b.valid - c.valid + d.valid;
+    for (int k = 0; k < N; ++k) s[k] = a[k] - b[k] - c[k] + d[k];
     return s;
   }
 
@@ -154,17 +112,19 @@ PlaneSweepResult PlaneSweepDepth(const ImageF& reference, const PinholeCamera& c
   const bool inside_window = w > 2 * r && h > 2 * r;
 
   // The reference window's mean and standard deviation.
-  Integral ref_sum, ref_sq;
-  ref_sum.Reset(w, h);
-  ref_sq.Reset(w, h);
-  ref_sum.Build(h, [&](int x, int y) { return double(reference(x, y)); });
-  ref_sq.Build(h, [&](int x, int y) { return double(reference(x, y)) * reference(x, y); });
+  SummedAreas<2> ref_sums;  // grey level, its square
+  ref_sums.Reset(w, h);
+  ref_sums.Build(h, [&](int x, int y) {
+    const double value = reference(x, y);
+    return SummedAreas<2>::Sums{value, value * value};
+  });
   std::vector<double> ref_mean(n, 0.0), ref_std(n, 0.0);
   for (int y = r; inside_window && y < h - r; ++y) {
     for (int x = r; x < w - r; ++x) {
-      const double m = ref_sum.Window(x, y, r) / area;
+      const SummedAreas<2>::Sums window = ref_sums.Window(x, y, r);
+      const double m = window[0] / area;
       ref_mean[index(x, y)] = m;
-      ref_std[index(x, y)] = std::sqrt(std::max(ref_sq.Window(x, y, r) / area - m * m, 0.0));
+      ref_std[index(x, y)] = std::sqrt(std::max(window[1] / area - m * m, 0.0));
     }
   }
 
@@ -226,9 +186,11 @@ PlaneSweepResult PlaneSweepDepth(const ImageF& reference, const PinholeCamera& c
   // min_views.
   constexpr float kNone = std::numeric_limits<float>::infinity();
   std::vector<float> cost(static_cast<size_t>(num_depths) * n, kNone);
+  const float* reference_pixels = reference.vector().data();
   const auto sweep = [&](int first, int step) {
     std::vector<float> warped(n), valid(n), sum(n), count(n);
-    WarpIntegral sums;
+    // The warped view's grey level w, w^2, w times the reference, and whether it was inside.
+    SummedAreas<4> sums;
     sums.Reset(w, h);
     for (int k = first; k < num_depths; k += step) {
       const double rho = rho_of(k);
@@ -254,15 +216,20 @@ PlaneSweepResult PlaneSweepDepth(const ImageF& reference, const PinholeCamera& c
                       ay * ((1.0f - ax) * row1[x0] + ax * row1[x1]);
           valid[p] = 1.0f;
         }
-        sums.Build(h, warped.data(), valid.data(), reference);
+        sums.Build(h, [&](int x, int y) {
+          const size_t p = index(x, y);
+          const double value = warped[p];
+          return SummedAreas<4>::Sums{value, value * value, value * reference_pixels[p],
+                                      static_cast<double>(valid[p])};
+        });
         for (const int p : wanted_pixels) {
           const int x = p % w, y = p / w;
-          const WarpIntegral::Sums window = sums.Window(x, y, r);
-          if (window.valid < area - 0.5) continue;
-          const double mean = window.w / area;
-          const double var = window.ww / area - mean * mean;
+          const SummedAreas<4>::Sums window = sums.Window(x, y, r);
+          if (window[3] < area - 0.5) continue;
+          const double mean = window[0] / area;
+          const double var = window[1] / area - mean * mean;
           if (!(var > 1e-6)) continue;
-          const double covariance = window.rw / area - mean * ref_mean[p];
+          const double covariance = window[2] / area - mean * ref_mean[p];
           const double zncc = covariance / (ref_std[p] * std::sqrt(var));
           sum[p] += static_cast<float>(1.0 - std::clamp(zncc, -1.0, 1.0));
           count[p] += 1.0f;
