@@ -396,15 +396,36 @@ CompressedFeatureMetricCost::CompressedFeatureMetricCost(const FeatureMetricCost
   num_full_residuals_ = cost->num_residuals();
 }
 
-bool CompressedFeatureMetricCost::Hit(const double* host_pose, const double* target_pose,
-                                      double inverse_depth) const {
-  if (!cache_.valid) return false;
-  const double* x = cache_.parameters;
-  // Bitwise equality (as Ceres hands back the values it evaluated at); NaN never matches.
+namespace {
+
+// Whether the 15 parameters x are host_pose, target_pose, inverse_depth: bitwise equality (as
+// Ceres hands back the values it evaluated at); NaN never matches.
+bool SameParameters(const double* x, const double* host_pose, const double* target_pose,
+                    double inverse_depth) {
   for (int i = 0; i < kPoseAmbientSize; ++i) {
     if (x[i] != host_pose[i] || x[kPoseAmbientSize + i] != target_pose[i]) return false;
   }
   return x[2 * kPoseAmbientSize] == inverse_depth;
+}
+
+void StoreParameters(const double* host_pose, const double* target_pose, double inverse_depth,
+                     double* x) {
+  std::copy(host_pose, host_pose + kPoseAmbientSize, x);
+  std::copy(target_pose, target_pose + kPoseAmbientSize, x + kPoseAmbientSize);
+  x[2 * kPoseAmbientSize] = inverse_depth;
+}
+
+}  // namespace
+
+bool CompressedFeatureMetricCost::Hit(const double* host_pose, const double* target_pose,
+                                      double inverse_depth) const {
+  return cache_.valid && SameParameters(cache_.parameters, host_pose, target_pose, inverse_depth);
+}
+
+bool CompressedFeatureMetricCost::NormHit(const double* host_pose, const double* target_pose,
+                                          double inverse_depth) const {
+  return norm_cache_.valid &&
+         SameParameters(norm_cache_.parameters, host_pose, target_pose, inverse_depth);
 }
 
 bool CompressedFeatureMetricCost::CachedSquaredNorm(const double* host_pose,
@@ -470,12 +491,38 @@ bool CompressedFeatureMetricCost::Factorize(const double* host_pose, const doubl
   }
   r_c(6) = std::sqrt(std::max(sq - l_sq, 0.0));
   if (!r_c.allFinite()) return false;
-  std::copy(host_pose, host_pose + kPoseAmbientSize, cache_.parameters);
-  std::copy(target_pose, target_pose + kPoseAmbientSize, cache_.parameters + kPoseAmbientSize);
-  cache_.parameters[2 * kPoseAmbientSize] = inverse_depth;
+  StoreParameters(host_pose, target_pose, inverse_depth, cache_.parameters);
   cache_.squared_norm = sq;
   cache_.valid = true;
   return true;
+}
+
+bool CompressedFeatureMetricCost::FullSquaredNorm(const double* host_pose,
+                                                  const double* target_pose, double inverse_depth,
+                                                  double* squared_norm) const {
+  std::vector<double>& full = FullResidualScratch(num_full_residuals_);
+  if (!block_.Evaluate(host_pose, target_pose, inverse_depth, full.data(), nullptr, nullptr,
+                       nullptr, /*ambient=*/false)) {
+    return false;
+  }
+  *squared_norm = SquaredNorm(full);
+  return true;
+}
+
+void CompressedFeatureMetricCost::Prefetch(const double* host_pose, const double* target_pose,
+                                           double inverse_depth, bool with_jacobians) const {
+  if (Hit(host_pose, target_pose, inverse_depth)) return;
+  if (with_jacobians) {
+    Factorize(host_pose, target_pose, inverse_depth);  // on failure Evaluate fails as before
+    return;
+  }
+  if (NormHit(host_pose, target_pose, inverse_depth)) return;
+  norm_cache_.valid = false;
+  double sq = 0.0;
+  if (!FullSquaredNorm(host_pose, target_pose, inverse_depth, &sq)) return;
+  StoreParameters(host_pose, target_pose, inverse_depth, norm_cache_.parameters);
+  norm_cache_.squared_norm = sq;
+  norm_cache_.valid = true;
 }
 
 bool CompressedFeatureMetricCost::Evaluate(double const* const* parameters, double* residuals,
@@ -489,13 +536,10 @@ bool CompressedFeatureMetricCost::Evaluate(double const* const* parameters, doub
     double sq = 0.0;
     if (hit) {
       sq = cache_.squared_norm;
-    } else {
-      std::vector<double>& full = FullResidualScratch(num_full_residuals_);
-      if (!block_.Evaluate(host_pose, target_pose, inverse_depth, full.data(), nullptr, nullptr,
-                           nullptr, /*ambient=*/false)) {
-        return false;
-      }
-      sq = SquaredNorm(full);
+    } else if (NormHit(host_pose, target_pose, inverse_depth)) {
+      sq = norm_cache_.squared_norm;
+    } else if (!FullSquaredNorm(host_pose, target_pose, inverse_depth, &sq)) {
+      return false;
     }
     std::fill_n(residuals, kNumResiduals, 0.0);
     residuals[0] = std::sqrt(sq);

@@ -204,6 +204,15 @@ class CompressedFeatureMetricCost : public ceres::SizedCostFunction<7, 7, 7, 1> 
   bool CachedSquaredNorm(const double* host_pose, const double* target_pose, double inverse_depth,
                          double* squared_norm) const;
 
+  // Evaluates ahead of Ceres (WindowOptions::evaluation_threads: the window calls it for every
+  // block from its own threads before each of Ceres's evaluations, one block on one thread at a
+  // time): with_jacobians, the factor as an evaluation with Jacobians would; otherwise |r|^2
+  // alone, as a residual-only evaluation would, kept apart from the factor. A later Evaluate at
+  // bitwise these parameters copies the result, so the values Ceres sees are the same whether or
+  // not (and from which thread) a block was prefetched.
+  void Prefetch(const double* host_pose, const double* target_pose, double inverse_depth,
+                bool with_jacobians) const;
+
   // Rows of the compressed residual.
   static constexpr int kNumResiduals = 7;
 
@@ -215,7 +224,17 @@ class CompressedFeatureMetricCost : public ceres::SizedCostFunction<7, 7, 7, 1> 
     double residuals[7];    // the compressed residual
     double factor[6 * 7];   // [R_A R_c], row-major (see above)
   };
+  // The last prefetched residual-only evaluation.
+  struct NormCache {
+    bool valid = false;
+    double parameters[15];
+    double squared_norm;
+  };
   bool Hit(const double* host_pose, const double* target_pose, double inverse_depth) const;
+  bool NormHit(const double* host_pose, const double* target_pose, double inverse_depth) const;
+  // |r|^2 of the full residual; false when a value is not finite.
+  bool FullSquaredNorm(const double* host_pose, const double* target_pose, double inverse_depth,
+                       double* squared_norm) const;
   // Evaluates the Gram matrix, factorises it into cache_ and marks it valid; false (cache_
   // invalid) when a value is not finite.
   bool Factorize(const double* host_pose, const double* target_pose, double inverse_depth) const;
@@ -223,6 +242,7 @@ class CompressedFeatureMetricCost : public ceres::SizedCostFunction<7, 7, 7, 1> 
   FeatureMetricBlock block_;
   int num_full_residuals_;
   mutable Cache cache_;
+  mutable NormCache norm_cache_;
 };
 
 }  // namespace dfo

@@ -130,6 +130,8 @@ OdometryFrame Odometry::Process(const Frame& frame) {
     out.tracking_depth = tracked_depth;
   }
   const auto finish = [&]() {
+    // A frame that became the reference got its depth after Process (Frontend::last_timings).
+    out.timings = frontend_->last_timings();
     out.frontend_world_from_cam = poses_.FrontendPose(t.index);
     out.windowed_world_from_cam = poses_.WindowedPose(t.index);
     return out;

@@ -9,6 +9,7 @@
 #include <limits>
 #include <map>
 #include <sstream>
+#include <thread>
 
 #include "dfo_backend/feature_metric_cost.h"
 #include "dfo_backend/marginalization.h"
@@ -26,6 +27,51 @@ void Require(bool ok, const std::string& key, const T& value, const std::string&
   msg << key << " = " << value << " violates " << rule;
   throw ConfigError(msg.str());
 }
+
+// Evaluates the compressed blocks of a solve before each of Ceres's evaluations, on up to
+// `threads` threads: thread t takes the t-th contiguous share of the blocks, and each block is
+// evaluated alone into its own cache (CompressedFeatureMetricCost::Prefetch), so what Ceres then
+// reads does not depend on the number of threads. Ceres hands the callback the parameters in the
+// solve's own buffers, the ones the blocks were added with.
+class BlockPrefetch : public ceres::EvaluationCallback {
+ public:
+  struct Block {
+    const CompressedFeatureMetricCost* cost;
+    const double* host_pose;
+    const double* target_pose;
+    const double* inverse_depth;
+  };
+
+  explicit BlockPrefetch(int threads) : threads_(threads) {}
+  void Add(const Block& block) { blocks_.push_back(block); }
+
+  void PrepareForEvaluation(bool evaluate_jacobians, bool /*new_evaluation_point*/) override {
+    const auto run = [this, evaluate_jacobians](size_t begin, size_t end) {
+      // A block that fails here (or throws) is evaluated again by Ceres, which reports it.
+      try {
+        for (size_t i = begin; i < end; ++i) {
+          const Block& b = blocks_[i];
+          b.cost->Prefetch(b.host_pose, b.target_pose, *b.inverse_depth, evaluate_jacobians);
+        }
+      } catch (...) {
+      }
+    };
+    const size_t n = blocks_.size();
+    // Below a few hundred blocks a thread costs more than it saves.
+    const size_t threads = std::min<size_t>(threads_, std::max<size_t>(n / kMinBlocksPerThread, 1));
+    std::vector<std::thread> pool;
+    for (size_t t = 1; t < threads; ++t) {
+      pool.emplace_back(run, n * t / threads, n * (t + 1) / threads);
+    }
+    run(0, n / threads);
+    for (std::thread& thread : pool) thread.join();
+  }
+
+ private:
+  static constexpr size_t kMinBlocksPerThread = 256;
+  int threads_;
+  std::vector<Block> blocks_;
+};
 
 double MsSince(std::chrono::steady_clock::time_point start) {
   return std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start)
@@ -188,6 +234,8 @@ void WindowOptions::Check() const {
   Require(std::isfinite(max_solver_time_s) && max_solver_time_s > 0.0, "window.max_solver_time_s",
           max_solver_time_s, "> 0");
   Require(num_threads >= 1, "window.num_threads", num_threads, ">= 1");
+  Require(evaluation_threads >= 1 && evaluation_threads <= 1024, "window.evaluation_threads",
+          evaluation_threads, "in [1, 1024]");
   Require(std::isfinite(min_inverse_depth) && min_inverse_depth >= 0.0, "window.min_inverse_depth",
           min_inverse_depth, ">= 0");
   Require(std::isfinite(depth_prior_weight) && depth_prior_weight >= 0.0,
@@ -590,7 +638,9 @@ bool WindowOptimizer::Solve(int max_iterations, double* initial_cost, double* fi
 
   std::vector<std::unique_ptr<ceres::CostFunction>> owned_costs;
   std::unique_ptr<ceres::LossFunction> prior_loss;
+  BlockPrefetch prefetch(options_.evaluation_threads);
   ceres::Problem::Options problem_options;
+  if (options_.evaluation_threads > 1) problem_options.evaluation_callback = &prefetch;
   problem_options.cost_function_ownership = ceres::DO_NOT_TAKE_OWNERSHIP;
   problem_options.loss_function_ownership = ceres::DO_NOT_TAKE_OWNERSHIP;
   problem_options.manifold_ownership = ceres::DO_NOT_TAKE_OWNERSHIP;
@@ -635,6 +685,9 @@ bool WindowOptimizer::Solve(int max_iterations, double* initial_cost, double* fi
       }
       problem.AddResidualBlock(block_cost, loss_.get(), pose_of.at(p->host_id),
                                pose_of.at(target_id), depth);
+      if (const auto* compressed = dynamic_cast<const CompressedFeatureMetricCost*>(block_cost)) {
+        prefetch.Add({compressed, pose_of.at(p->host_id), pose_of.at(target_id), depth});
+      }
       ++num_blocks;
     }
     ordering->AddElementToGroup(depth, 0);

@@ -137,6 +137,11 @@ struct WindowOptions {
   double max_solver_time_s = 0.1;
   // Ceres threads; >= 1 (1 gives run-to-run identical results).
   int num_threads = 2;
+  // Threads that evaluate the feature-metric blocks before each of Ceres's evaluations (through
+  // a ceres::EvaluationCallback; Ceres then copies each block's result). Every block is
+  // evaluated alone, so the results do not depend on this number: run-to-run identical with
+  // num_threads = 1. 1 = Ceres evaluates the blocks itself. >= 1.
+  int evaluation_threads = 2;
   // Lower bound of every inverse depth in 1/m (1e-3: points may lie up to 1 km away), enforced
   // by projection after each solve; >= 0.
   double min_inverse_depth = 1e-3;

@@ -7,7 +7,7 @@
 
 namespace dfo {
 
-DepthPyramid GroundTruthDepthSource::Compute(const Frame& frame, int num_levels) {
+void GroundTruthDepthSource::Check(const Frame& frame, int num_levels) const {
   DFO_CHECK(num_levels >= 1) << num_levels;
   if (frame.depth_m.empty()) {
     throw InputError("frame " + std::to_string(frame.index) +
@@ -23,22 +23,28 @@ DepthPyramid GroundTruthDepthSource::Compute(const Frame& frame, int num_levels)
         << "; expected a 1-channel depth map of the image's size";
     throw InputError(msg.str());
   }
+  int width = frame.depth_m.width(), height = frame.depth_m.height();
+  for (int l = 1; l < num_levels; ++l) {
+    if (width < 2 || height < 2) {
+      std::ostringstream msg;
+      msg << "frame " << frame.index << ": a " << frame.depth_m.width() << "x"
+          << frame.depth_m.height() << " depth map cannot have " << num_levels << " levels";
+      throw InputError(msg.str());
+    }
+    width /= 2;
+    height /= 2;
+  }
+}
+
+DepthPyramid GroundTruthDepthSource::Compute(const Frame& frame, int num_levels) {
+  Check(frame, num_levels);
   DepthPyramid out;
   ImageF level0 = frame.depth_m;
   for (float& d : level0.vector()) {
     if (!std::isfinite(d) || d < 0.0f) d = 0.0f;
   }
   out.levels.push_back(std::move(level0));
-  for (int l = 1; l < num_levels; ++l) {
-    const ImageF& prev = out.levels.back();
-    if (prev.width() < 2 || prev.height() < 2) {
-      std::ostringstream msg;
-      msg << "frame " << frame.index << ": a " << frame.depth_m.width() << "x"
-          << frame.depth_m.height() << " depth map cannot have " << num_levels << " levels";
-      throw InputError(msg.str());
-    }
-    out.levels.push_back(DownsampleDepthHalf(prev));
-  }
+  for (int l = 1; l < num_levels; ++l) out.levels.push_back(DownsampleDepthHalf(out.levels.back()));
   return out;
 }
 

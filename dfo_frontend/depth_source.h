@@ -30,6 +30,13 @@ class DepthSource {
   // whose size differs from the image's). A map full of zeros or NaN is NOT an error: it gives
   // an all-invalid pyramid, and tracking reports the frame lost.
   virtual DepthPyramid Compute(const Frame& frame, int num_levels) = 0;
+  // Throws the InputError that Compute would throw for this frame's input, without computing
+  // the depth (Frontend::Process checks every frame, and computes the depth only for frames that
+  // become references). The default checks nothing.
+  virtual void Check(const Frame& frame, int num_levels) const {
+    (void)frame;
+    (void)num_levels;
+  }
 };
 
 // Ground-truth depth: Frame::depth_m (non-finite and negative values become 0 = invalid), then
@@ -38,6 +45,7 @@ class GroundTruthDepthSource : public DepthSource {
  public:
   std::string name() const override { return "gt"; }
   DepthPyramid Compute(const Frame& frame, int num_levels) override;
+  void Check(const Frame& frame, int num_levels) const override;
 };
 
 // Creates the depth source called `name` ("gt"). Throws ConfigError naming the value and the

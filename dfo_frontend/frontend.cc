@@ -28,10 +28,12 @@ struct Frontend::State {
   SE3d last_from_prev;  // last inter-frame motion (identity when unknown)
   // The last processed frame, for MakeLastFrameReference.
   bool has_last_frame = false;
-  Frame last_input;  // kept only when the keyframes get their own features
+  // Kept when the keyframes get their own features or the frame's depth was not computed.
+  Frame last_input;
   TrackedFrame last_frame;
   FeaturePyramid last_features;
   DepthPyramid last_depth;
+  bool last_depth_pending = false;  // last_depth not computed yet (from last_input when needed)
   // The keyframe data of the previous frame when the last Process call re-tracked against it.
   std::optional<KeyframeData> retrack_keyframe;
 };
@@ -119,20 +121,32 @@ TrackedFrame Frontend::Process(const Frame& frame) {
   auto start = std::chrono::steady_clock::now();
   FeaturePyramid features = features_->Compute(frame, num_levels);
   timings_.features_ms = MsSince(start);
-  start = std::chrono::steady_clock::now();
-  DepthPyramid depth = depth_->Compute(frame, num_levels);
-  timings_.depth_ms = MsSince(start);
+  // The depth is needed only by a frame that becomes a reference (DSO, too, has depth only for
+  // keyframes): it is computed then, here or in MakeLastFrameReference. Its input is checked
+  // now, so that a bad frame still throws before anything is tracked.
+  depth_->Check(frame, num_levels);
+  DepthPyramid depth;
+  bool have_depth = false;
+  const auto need_depth = [&]() -> const DepthPyramid& {
+    if (!have_depth) {
+      depth = ComputeDepth(frame);
+      have_depth = true;
+    }
+    return depth;
+  };
   s.retrack_keyframe.reset();
 
   start = std::chrono::steady_clock::now();
   // Every return goes through `finish`: the frame's pyramids are kept for MakeLastFrameReference.
   auto finish = [&](const TrackedFrame& result) {
-    timings_.tracking_ms = MsSince(start);
+    // Depth computed during tracking (a new reference, a re-track) is the depth stage's time.
+    timings_.tracking_ms = std::max(MsSince(start) - timings_.depth_ms, 0.0);
     s.has_last_frame = true;
-    if (keyframe_features_) s.last_input = frame;
     s.last_frame = result;
     s.last_features = std::move(features);
-    s.last_depth = std::move(depth);
+    s.last_depth_pending = !have_depth;
+    s.last_depth = have_depth ? std::move(depth) : DepthPyramid();
+    if (keyframe_features_ || s.last_depth_pending) s.last_input = frame;
     return result;
   };
   TrackedFrame out;
@@ -142,7 +156,9 @@ TrackedFrame Frontend::Process(const Frame& frame) {
   // A reference needs enough points: at least min_inliers_lost patches at the finest level.
   const int min_points = MinReferencePoints();
   auto make_reference = [&](const SE3d& world_from_cam) {
-    // A switch from a tracked reference carries its depth scale over (FrontendOptions::depth_scale).
+    // A switch from a tracked reference carries its depth scale over
+    // (FrontendOptions::depth_scale).
+    need_depth();
     if (s.has_reference && PropagatesDepthScale()) {
       const double scale = DepthScaleFromReference(
           depth, world_from_cam.Inverse() * s.world_from_ref, features.levels[0].camera);
@@ -177,8 +193,8 @@ TrackedFrame Frontend::Process(const Frame& frame) {
       out.reference_mean_depth = s.reference_mean_depth;
     } else {
       out.status = TrackingStatus::kLost;
-      out.lost_cause = depth.NumValid(0) < MinReferenceDepths() ? LostCause::kNoDepth
-                                                                 : LostCause::kFewPoints;
+      out.lost_cause =
+          depth.NumValid(0) < MinReferenceDepths() ? LostCause::kNoDepth : LostCause::kFewPoints;
     }
     s.has_motion = false;
     s.last_from_prev = SE3d();
@@ -248,7 +264,7 @@ TrackedFrame Frontend::Process(const Frame& frame) {
   const bool switch_reference =
       distance_ratio > ro.translation_ratio || rotation_deg > ro.rotation_deg ||
       result.inlier_ratio < ro.min_inlier_ratio || s.frames_since_reference >= ro.max_interval;
-  if (switch_reference && depth.NumValid(0) >= MinReferenceDepths()) {
+  if (switch_reference && need_depth().NumValid(0) >= MinReferenceDepths()) {
     if (make_reference(world_from_cam)) {
       out.is_new_reference = true;
     }
@@ -288,6 +304,13 @@ double Frontend::DepthScaleFromReference(const DepthPyramid& depth, const SE3d& 
 
 int Frontend::MinReferencePoints() const { return std::max(options_.tracker.min_inliers_lost, 12); }
 
+DepthPyramid Frontend::ComputeDepth(const Frame& frame) {
+  const auto start = std::chrono::steady_clock::now();
+  DepthPyramid depth = depth_->Compute(frame, options_.tracker.num_levels);
+  timings_.depth_ms += MsSince(start);
+  return depth;
+}
+
 int Frontend::MinReferenceDepths() const {
   return MinReferencePoints() * options_.tracker.patch_size * options_.tracker.patch_size;
 }
@@ -297,6 +320,10 @@ bool Frontend::MakeLastFrameReference(KeyframeData* keyframe) {
   if (!s.has_last_frame || s.last_frame.status == TrackingStatus::kLost) return false;
   const TrackedFrame& last = s.last_frame;
   const bool already = s.has_reference && s.reference_index == last.index;
+  if (s.last_depth_pending) {
+    s.last_depth = ComputeDepth(s.last_input);
+    s.last_depth_pending = false;
+  }
   if (!already) {
     if (s.last_depth.num_levels() == 0 || s.last_depth.NumValid(0) < MinReferenceDepths()) {
       return false;  // keep tracking against the current reference
@@ -324,9 +351,9 @@ bool Frontend::MakeLastFrameReference(KeyframeData* keyframe) {
     keyframe->frame_index = last.index;
     keyframe->timestamp_ns = last.timestamp_ns;
     keyframe->world_from_cam = last.world_from_cam;
-    keyframe->features = keyframe_features_
-                             ? keyframe_features_->Compute(s.last_input, options_.tracker.num_levels)
-                             : s.last_features;
+    keyframe->features =
+        keyframe_features_ ? keyframe_features_->Compute(s.last_input, options_.tracker.num_levels)
+                           : s.last_features;
     keyframe->depth = s.last_depth;
   }
   return true;

@@ -68,7 +68,9 @@ struct FrontendOptions {
 // Wall time of the stages of the last Process call, milliseconds.
 struct FrontendTimings {
   double features_ms = 0.0;  // feature pyramid
-  double depth_ms = 0.0;     // depth pyramid
+  // Depth pyramid: only a frame that becomes a reference needs one (made by Process or
+  // MakeLastFrameReference, whose time counts here for the last frame); 0 for the others.
+  double depth_ms = 0.0;
   double tracking_ms = 0.0;  // alignment, including setting a new reference (points, Jacobians)
 };
 
@@ -148,6 +150,8 @@ class Frontend {
   double DepthScaleFromReference(const DepthPyramid& depth, const SE3d& cam_from_ref,
                                  const PinholeCamera& camera) const;
   int MinReferenceDepths() const;
+  // The depth source's pyramid of `frame`, its time added to timings_.depth_ms.
+  DepthPyramid ComputeDepth(const Frame& frame);
   FrontendOptions options_;
   std::unique_ptr<FeatureSource> features_;
   // Features of the keyframes handed to the window when they differ from the tracker's

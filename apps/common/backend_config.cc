@@ -63,6 +63,7 @@ WindowOptions WindowOptionsFromConfig(const io::Config& config) {
   o.relative_eigenvalue_floor = config.GetDouble("backend.relative_eigenvalue_floor");
   o.prior_scale_memory = config.GetDouble("backend.prior_scale_memory");
   o.num_threads = ThreadsFromConfig(config);
+  o.evaluation_threads = o.num_threads;  // the result does not depend on it
   if (config.GetBool("run.deterministic")) {
     // Identical results run to run: one Ceres thread, and no wall-clock limit on a solve (where
     // a solve stops would depend on the machine's load); the iteration limit still holds.

@@ -86,6 +86,8 @@ struct LearnedModel::Impl {
   void Load();
   // Makes the asked-for outputs of `frame` available (running only what is not cached).
   void Run(const Frame& frame, bool want_features, bool want_depth);
+  // The InputErrors of Run for the frame's image, without running anything.
+  void CheckInput(const Frame& frame) const;
   void StoreDepth(const Frame& frame, const std::vector<torch::Tensor>& depth_levels);
   void StoreFeatures(const Frame& frame, const std::vector<torch::Tensor>& feature_levels,
                      const std::vector<torch::Tensor>& logit_levels);
@@ -156,7 +158,7 @@ void LearnedModel::Impl::Load() {
   }
 }
 
-void LearnedModel::Impl::Run(const Frame& frame, bool want_features, bool want_depth) {
+void LearnedModel::Impl::CheckInput(const Frame& frame) const {
   const ImageU8& image = frame.image;
   if (image.empty()) throw InputError(What(frame) + ": empty image");
   if (image.channels() != 1 && image.channels() != 3) {
@@ -183,6 +185,13 @@ void LearnedModel::Impl::Run(const Frame& frame, bool want_features, bool want_d
                      std::to_string(height) + "; the model's " + std::to_string(o.num_levels) +
                      " levels need sides divisible by " + std::to_string(div));
   }
+}
+
+void LearnedModel::Impl::Run(const Frame& frame, bool want_features, bool want_depth) {
+  CheckInput(frame);
+  const ImageU8& image = frame.image;
+  const learned::NetworkOptions& o = model.options;
+  const int width = image.width(), height = image.height();
   CacheKey k;
   k.index = frame.index;
   k.timestamp_ns = frame.timestamp_ns;
@@ -358,6 +367,8 @@ LearnedModel::~LearnedModel() = default;
 const LearnedModelInfo& LearnedModel::info() const { return impl_->info; }
 const LearnedModelOptions& LearnedModel::options() const { return impl_->options; }
 
+void LearnedModel::CheckInput(const Frame& frame) const { impl_->CheckInput(frame); }
+
 const FeaturePyramid& LearnedModel::Features(const Frame& frame) {
   impl_->Run(frame, /*want_features=*/true, /*want_depth=*/false);
   return impl_->features;
@@ -407,6 +418,10 @@ class LearnedDepthSource : public DepthSource {
     DFO_CHECK(model_ != nullptr) << "MakeLearnedDepthSource needs a model";
   }
   std::string name() const override { return "learned"; }
+  void Check(const Frame& frame, int num_levels) const override {
+    DFO_CHECK(num_levels >= 1) << "num_levels = " << num_levels;
+    model_->CheckInput(frame);
+  }
   DepthPyramid Compute(const Frame& frame, int num_levels) override {
     DFO_CHECK(num_levels >= 1) << "num_levels = " << num_levels;
     const DepthPyramid& all = model_->Depth(frame);

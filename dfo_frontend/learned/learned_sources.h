@@ -128,6 +128,9 @@ class LearnedModel {
   // wrong shape.
   const FeaturePyramid& Features(const Frame& frame);
   const DepthPyramid& Depth(const Frame& frame);
+  // Throws the InputError that Features and Depth would throw for the frame's image (see
+  // above; TorchScript output shapes aside), without running a network.
+  void CheckInput(const Frame& frame) const;
 
   // Figures of the last frame the networks ran on (not updated by cache hits).
   const LearnedFrameStats& last_stats() const;

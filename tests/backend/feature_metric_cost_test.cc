@@ -651,5 +651,46 @@ TEST(CompressedFeatureMetricCostTest, KeptEvaluationServesOnlyTheSameParameters)
   EXPECT_FALSE(kept.CachedSquaredNorm(fx.host_pose, moved, fx.rho + 1e-12, &sq));
 }
 
+// Prefetch evaluates as Evaluate would: afterwards Evaluate (with or without Jacobians) gives
+// bitwise a fresh cost's outputs. A residual-only prefetch keeps only |r|^2, apart from the
+// Jacobian evaluation that the outlier gate reads.
+TEST(CompressedFeatureMetricCostTest, PrefetchGivesTheSameEvaluations) {
+  CostFixture fx(43);
+  FeatureMetricCost full(&fx.target, fx.host.camera, fx.uv, 3, fx.patch);
+  const int n = CompressedFeatureMetricCost::kNumResiduals;
+  const auto evaluate = [n](const CompressedFeatureMetricCost& cost, const double* host,
+                            const double* target, double rho, bool jacobians) {
+    std::vector<double> out(static_cast<size_t>(n) * 16, 0.0);
+    double* jac[] = {out.data() + n, out.data() + 8 * n, out.data() + 15 * n};
+    const double* params[] = {host, target, &rho};
+    EXPECT_TRUE(cost.Evaluate(params, out.data(), jacobians ? jac : nullptr));
+    return out;
+  };
+  double moved[7];
+  std::copy(fx.target_pose, fx.target_pose + 7, moved);
+  moved[5] += 0.02;
+
+  CompressedFeatureMetricCost prefetched(&full);
+  double sq = -1.0;
+  prefetched.Prefetch(fx.host_pose, moved, fx.rho, /*with_jacobians=*/false);
+  EXPECT_FALSE(prefetched.CachedSquaredNorm(fx.host_pose, moved, fx.rho, &sq));
+  EXPECT_EQ(evaluate(prefetched, fx.host_pose, moved, fx.rho, false),
+            evaluate(CompressedFeatureMetricCost(&full), fx.host_pose, moved, fx.rho, false));
+
+  prefetched.Prefetch(fx.host_pose, fx.target_pose, fx.rho, /*with_jacobians=*/true);
+  ASSERT_TRUE(prefetched.CachedSquaredNorm(fx.host_pose, fx.target_pose, fx.rho, &sq));
+  // A residual-only prefetch elsewhere leaves the kept Jacobian evaluation alone.
+  prefetched.Prefetch(fx.host_pose, moved, fx.rho, /*with_jacobians=*/false);
+  EXPECT_TRUE(prefetched.CachedSquaredNorm(fx.host_pose, fx.target_pose, fx.rho, &sq));
+  for (const bool jacobians : {false, true}) {
+    for (const double* target : std::vector<const double*>{fx.target_pose, moved}) {
+      EXPECT_EQ(
+          evaluate(prefetched, fx.host_pose, target, fx.rho, jacobians),
+          evaluate(CompressedFeatureMetricCost(&full), fx.host_pose, target, fx.rho, jacobians))
+          << "jacobians " << jacobians;
+    }
+  }
+}
+
 }  // namespace
 }  // namespace dfo

@@ -3,9 +3,9 @@
 // state, NaN depth is harmless, bad input and options are rejected with their names.
 #include "dfo_backend/window_optimizer.h"
 
-#include <Eigen/Eigenvalues>
 #include <gtest/gtest.h>
 
+#include <Eigen/Eigenvalues>
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
@@ -297,9 +297,8 @@ TEST(WindowOptimizerTest, PriorScaleMemoryKeepsTheScaleInformationOfADepthPrior)
     scale_information[keep] = q.col(6).dot(h * q.col(6)) / eig.eigenvalues().maxCoeff();
     rank[keep] = lp.rank();
   }
-  std::printf(
-      "[ figures  ] scale information of the prior / its largest: memory 0 %.2e, 1 %.2e\n",
-      scale_information[0], scale_information[1]);
+  std::printf("[ figures  ] scale information of the prior / its largest: memory 0 %.2e, 1 %.2e\n",
+              scale_information[0], scale_information[1]);
   EXPECT_LT(std::abs(scale_information[0]), 1e-15);
   EXPECT_GT(scale_information[1], 1e-11);
   EXPECT_EQ(rank[1], rank[0] + 1);
@@ -528,8 +527,9 @@ TEST(WindowOptimizerTest, DepthEdgeRuleKeepsPointsOffDepthEdges) {
   EXPECT_GT(exact_fraction, 0.0);
   EXPECT_LT(exact_fraction, 0.5);
   WindowOptimizer noisy(options);
-  EXPECT_GT(noisy.AddKeyframe(test::MakeSyntheticKeyframe(Sequence(), 0, 2, 0.05)).depth_edge_fraction,
-            0.9);
+  EXPECT_GT(
+      noisy.AddKeyframe(test::MakeSyntheticKeyframe(Sequence(), 0, 2, 0.05)).depth_edge_fraction,
+      0.9);
 }
 
 TEST(WindowOptimizerTest, SparseAndDenseSchurAgree) {
@@ -552,6 +552,41 @@ TEST(WindowOptimizerTest, SparseAndDenseSchurAgree) {
     const SE3d diff = poses[0][i].second.Inverse() * poses[1][i].second;
     EXPECT_LT(diff.translation().norm(), 1e-4);
     EXPECT_LT(diff.so3().Angle(), 1e-5);
+  }
+}
+
+// The blocks evaluated ahead of Ceres on several threads (WindowOptions::evaluation_threads) give
+// bitwise the same window as Ceres evaluating them itself: each block is evaluated alone.
+TEST(WindowOptimizerTest, EvaluationThreadsDoNotChangeTheResult) {
+  std::vector<std::vector<std::pair<int, SE3d>>> poses;
+  std::vector<std::vector<Eigen::Vector3d>> points;
+  int blocks = 0;
+  for (const int threads : {1, 2, 3}) {
+    WindowOptions options = TestOptions();
+    options.evaluation_threads = threads;
+    options.points_per_keyframe = 300;  // enough blocks for 3 threads (256 per thread at least)
+    options.max_iterations = 4;
+    WindowOptimizer window(options);
+    std::mt19937 rng(4);
+    WindowResult result;
+    for (int index = 0; index <= 6; index += 3) {
+      KeyframeData kf = test::MakeSyntheticKeyframe(Sequence(), index, 2);
+      if (index > 0) kf.world_from_cam = Perturb(kf.world_from_cam, 0.03, 0.005, &rng);
+      result = window.AddKeyframe(std::move(kf));
+      ASSERT_TRUE(result.optimized || index == 0) << result.message;
+    }
+    blocks = result.num_residual_blocks;
+    poses.push_back(result.keyframe_poses);
+    points.push_back(window.PointsInCamera(SE3d()));
+  }
+  EXPECT_GE(blocks, 3 * 256);
+  for (size_t t = 1; t < poses.size(); ++t) {
+    ASSERT_EQ(poses[t].size(), poses[0].size());
+    for (size_t i = 0; i < poses[0].size(); ++i) {
+      EXPECT_EQ(poses[t][i].second.Matrix(), poses[0][i].second.Matrix()) << "threads " << t + 1;
+    }
+    ASSERT_EQ(points[t].size(), points[0].size());
+    for (size_t i = 0; i < points[0].size(); ++i) EXPECT_EQ(points[t][i], points[0][i]);
   }
 }
 

@@ -76,8 +76,9 @@ class InjectedSourcesTest : public ::testing::Test {
   std::vector<Frame> frames_;
 };
 
-// Injected sources are called once per frame and give the same poses as the sources made by
-// name (they compute the same pyramids).
+// Injected sources give the same poses as the sources made by name (they compute the same
+// pyramids). The feature source runs on every frame, the depth source only on the frames that
+// become references.
 TEST_F(InjectedSourcesTest, InjectedSourcesAreUsed) {
   int feature_calls = 0, depth_calls = 0;
   std::vector<ImageF> depth;
@@ -88,14 +89,60 @@ TEST_F(InjectedSourcesTest, InjectedSourcesAreUsed) {
   Frontend injected(options, std::make_unique<CountingFeatureSource>(&feature_calls),
                     std::make_unique<TableDepthSource>(depth, &depth_calls));
   Frontend by_name(FrontendOptions{});
+  int references = 0;
   for (const Frame& frame : frames_) {
     const TrackedFrame a = injected.Process(frame);
     const TrackedFrame b = by_name.Process(frame);
     EXPECT_EQ(a.status, b.status) << "frame " << frame.index;
     EXPECT_EQ(a.world_from_cam.Matrix(), b.world_from_cam.Matrix()) << "frame " << frame.index;
+    if (a.is_new_reference) {
+      ++references;
+    } else {
+      EXPECT_EQ(injected.last_timings().depth_ms, 0.0);
+    }
   }
   EXPECT_EQ(feature_calls, static_cast<int>(frames_.size()));
-  EXPECT_EQ(depth_calls, static_cast<int>(frames_.size()));
+  ASSERT_GE(references, 2);  // the first frame and at least one switch
+  EXPECT_EQ(depth_calls, references);
+}
+
+// With the external policy the caller picks the references: the depth of a frame is computed
+// when MakeLastFrameReference makes it one (once, however often it is asked), counted in that
+// frame's depth time, and the poses are those of a frontend whose depth comes with the frames.
+TEST_F(InjectedSourcesTest, DepthIsComputedForTheFramesMadeReferences) {
+  int depth_calls = 0;
+  std::vector<ImageF> depth;
+  for (const Frame& f : frames_) depth.push_back(f.depth_m);
+  FrontendOptions options;
+  options.reference.policy = "external";
+  options.depth = "learned";
+  Frontend lazy(options, nullptr, std::make_unique<TableDepthSource>(depth, &depth_calls));
+  FrontendOptions gt_options;
+  gt_options.reference.policy = "external";
+  Frontend gt(gt_options);
+  int references = 0;
+  for (const Frame& frame : frames_) {
+    Frame no_depth = frame;
+    no_depth.depth_m = ImageF();
+    const TrackedFrame a = lazy.Process(no_depth);
+    const TrackedFrame b = gt.Process(frame);
+    EXPECT_EQ(a.world_from_cam.Matrix(), b.world_from_cam.Matrix()) << "frame " << frame.index;
+    if (a.status == TrackingStatus::kReference) ++references;
+    if (frame.index % 3 != 2) continue;
+    const int calls_before = depth_calls;
+    KeyframeData from_lazy, from_gt;
+    ASSERT_TRUE(lazy.MakeLastFrameReference(&from_lazy)) << "frame " << frame.index;
+    ASSERT_TRUE(gt.MakeLastFrameReference(&from_gt));
+    ASSERT_TRUE(lazy.MakeLastFrameReference(nullptr));  // again: already the reference
+    EXPECT_EQ(depth_calls, calls_before + 1) << "frame " << frame.index;
+    ++references;
+    ASSERT_EQ(from_lazy.depth.num_levels(), from_gt.depth.num_levels());
+    for (int l = 0; l < from_gt.depth.num_levels(); ++l) {
+      EXPECT_EQ(from_lazy.depth.levels[l].vector(), from_gt.depth.levels[l].vector());
+    }
+  }
+  EXPECT_EQ(depth_calls, references);
+  EXPECT_LT(depth_calls, static_cast<int>(frames_.size()));
 }
 
 // With an injected depth source the frames need no depth map (learned depth on KITTI); the
@@ -120,7 +167,14 @@ TEST_F(InjectedSourcesTest, InjectedDepthNeedsNoDepthMapInTheFrames) {
   Frame no_depth = frames_[0];
   no_depth.depth_m = ImageF();
   EXPECT_THROW(Frontend(FrontendOptions{}).Process(no_depth), InputError);
-  EXPECT_EQ(depth_calls, static_cast<int>(frames_.size()));
+  // Also on a frame that needs no depth (not a reference): the input is checked on every frame.
+  Frontend tracking(FrontendOptions{});
+  ASSERT_EQ(tracking.Process(frames_[0]).status, TrackingStatus::kReference);
+  EXPECT_THROW(tracking.Process(no_depth), InputError);
+  Frame wrong_size = frames_[1];
+  wrong_size.depth_m = ImageF(4, 4, 1, 1.0f);
+  EXPECT_THROW(tracking.Process(wrong_size), InputError);
+  EXPECT_NE(tracking.Process(frames_[1]).status, TrackingStatus::kLost);
 }
 
 // "learned" is a valid name, but only an application with a loaded model can make the sources:
