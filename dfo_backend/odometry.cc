@@ -42,6 +42,10 @@ struct Odometry::PendingSolve {
   DepthPyramid keyframe_depth;  // the source's, brought to the window's scale when known
   std::vector<PinholeCamera> cameras;
   std::chrono::steady_clock::time_point start;
+  // When AddKeyframe returned (set by whoever ran it, before the result is ready).
+  std::chrono::steady_clock::time_point finished;
+  // What the frames after the keyframe are tracked against until the solve is applied.
+  std::string submitted_depth;
 };
 
 const char* OdometryModeName(OdometryMode mode) {
@@ -119,6 +123,7 @@ OdometryFrame Odometry::Process(const Frame& frame) {
   // first, so that this one is booked against it.
   KeyframeData retrack;
   if (t.retracked_from >= 0 && frontend_->TakeRetrackKeyframe(&retrack)) {
+    WaitForWindow(&out);
     DFO_CHECK(retrack.frame_index == last_tracked_.index && poses_.Contains(retrack.frame_index) &&
               !poses_.IsKeyframe(retrack.frame_index))
         << "re-track reference " << retrack.frame_index << " is not the previous frame";
@@ -140,6 +145,7 @@ OdometryFrame Odometry::Process(const Frame& frame) {
   if (t.status == TrackingStatus::kReference) {
     // First frame or restart after a loss: a keyframe by itself, related to the previous
     // keyframe only through the frontend's poses.
+    WaitForWindow(&out);
     poses_.AddKeyframe(t.index, t.timestamp_ns, t.world_from_cam);
     out.kf_from_cam = t.world_from_cam;
     BecomeKeyframe(t, decision.reason, &out);
@@ -169,10 +175,16 @@ OdometryFrame Odometry::Process(const Frame& frame) {
     switched = t.is_new_reference;  // the frontend switched by its own rule
   }
   if (switched) {
+    WaitForWindow(&out);
     poses_.PromoteToKeyframe(t.index);
     BecomeKeyframe(t, external_ ? decision.reason : KeyframeReason::kNone, &out);
   }
   return finish();
+}
+
+void Odometry::WaitForWindow(OdometryFrame* out) {
+  const int solved = ApplyPendingSolve(/*wait=*/true);
+  if (solved >= 0) out->solved_keyframe = solved;
 }
 
 void Odometry::BecomeKeyframe(const TrackedFrame& t, KeyframeReason reason, OdometryFrame* out,
@@ -254,17 +266,28 @@ void Odometry::SubmitToWindow(const TrackedFrame& t, KeyframeData* given) {
       frontend_->SetReferenceDepth(t.index, pending->keyframe_depth)) {
     kf.tracking_depth = reference_depth_ = "scaled_source";
   }
+  pending->submitted_depth = kf.tracking_depth;
   if (options_.keyframe_filter) options_.keyframe_filter(&data);
   WindowOptimizer* window = window_.get();
+  std::chrono::steady_clock::time_point* finished = &pending->finished;
+  const auto solve = [window, finished, hook = options_.before_solve](KeyframeData d) {
+    // The end time is written even when AddKeyframe throws.
+    struct Stamp {
+      std::chrono::steady_clock::time_point* at;
+      ~Stamp() { *at = std::chrono::steady_clock::now(); }
+    } stamp{finished};
+    if (hook) hook(d.frame_index);
+    return window->AddKeyframe(std::move(d));
+  };
   if (options_.backend_thread) {
-    pending->result = std::async(std::launch::async, [window, d = std::move(data)]() mutable {
-      return window->AddKeyframe(std::move(d));
+    pending->result = std::async(std::launch::async, [solve, d = std::move(data)]() mutable {
+      return solve(std::move(d));
     });
   } else {
     std::promise<WindowResult> promise;
     pending->result = promise.get_future();
     try {
-      promise.set_value(window->AddKeyframe(std::move(data)));
+      promise.set_value(solve(std::move(data)));
     } catch (...) {
       promise.set_exception(std::current_exception());
     }
@@ -283,7 +306,10 @@ int Odometry::ApplyPendingSolve(bool wait) {
   KeyframeRecord* kf = &keyframes_[position];
   kf->window = pending->result.get();  // rethrows what AddKeyframe threw
   kf->ba_ran = true;
-  kf->backend_ms = MsSince(pending->start);
+  // From the hand-over to the end of the solve (not to this call, which with the backend thread
+  // may come frames later).
+  kf->backend_ms =
+      std::chrono::duration<double, std::milli>(pending->finished - pending->start).count();
   const int t = pending->frame_index;
   bool finite = true;
   for (const auto& [index, pose] : kf->window.keyframe_poses) finite &= IsFinitePose(pose);
@@ -326,7 +352,10 @@ int Odometry::ApplyPendingSolve(bool wait) {
     const bool raw_source = kf->tracking_depth == "source" && kf->window_scale > 0.0;
     if (ratio > 0.0) {
       kf->step_scale = ratio * (raw_source ? kf->window_scale : 1.0);
-      poses_.SetWindowedStepScale(t, kf->step_scale);
+      // Frames tracked before the solve was applied (backend thread) against the depth the
+      // frames after it are tracked against take the same factor.
+      poses_.SetWindowedStepScale(t, kf->step_scale,
+                                  kf->tracking_depth == pending->submitted_depth);
     }
   }
   return t;

@@ -42,7 +42,8 @@
 // that frame; the state stays that of the previous frame); lost tracking and failed solves are
 // statuses and messages, not throws. Synchronous by default, deterministic for
 // window.num_threads = 1; with OdometryOptions::backend_thread the window solves on its own
-// thread. Not thread-safe: one thread calls Process.
+// thread (deterministic as well with tracking.depth "source"). Not thread-safe: one thread calls
+// Process.
 // The frontend is included one way: dfo_backend uses dfo_frontend's public header, never the
 // reverse.
 #ifndef DFO_BACKEND_ODOMETRY_H_
@@ -86,14 +87,22 @@ struct OdometryOptions {
   // without a window it does nothing).
   KeyframeStereoOptions stereo;
   // run.backend_thread: window solves run on their own thread, so that a keyframe's solve does
-  // not stall the frames behind it; the frames until it finishes are tracked against the
-  // keyframe's source depth at the window's scale, and its results (poses, tracking depth) are
-  // applied at the first Process call after it finished (OdometryFrame::solved_keyframe), or
-  // when the next keyframe needs the window. Results then depend on timing: false gives the
-  // sequential, deterministic order (dfo_run: run.deterministic forces false).
+  // not stall the frames behind it. Its results (poses, step scale, tracking depth) are applied
+  // at the first Process call after it finished (OdometryFrame::solved_keyframe), and always
+  // before the next keyframe enters the pose store or the window. With tracking.depth "source"
+  // the frames are tracked against the keyframe's own depth whenever the solve ends, and the
+  // step scale reaches the frames tracked before it was applied (TrajectoryStore's
+  // rescale_added): the trajectories, keyframes and window are those of the sequential order,
+  // only the live estimate of a frame (OdometryFrame::windowed_world_from_cam) depends on timing.
+  // With "window" the frames until it finishes are tracked against the keyframe's source depth
+  // at the window's scale, and results depend on timing (dfo_run: run.deterministic then forces
+  // false).
   bool backend_thread = false;
   // For tests (fault injection): called on each keyframe's data just before the window gets it.
   std::function<void(KeyframeData*)> keyframe_filter;
+  // For tests: called with the keyframe's frame index on the thread that solves (the backend
+  // thread, or the caller's), just before the window's solve.
+  std::function<void(int)> before_solve;
 
   // Throws ConfigError naming the key (the nested options' Check; the window's only when a
   // window runs).
@@ -207,6 +216,9 @@ class Odometry {
   // Applies the pending solve (waiting for it when `wait`, else only when it has finished):
   // windowed poses, then the keyframe's tracking depth. Returns its frame index, -1 if none.
   int ApplyPendingSolve(bool wait);
+  // ApplyPendingSolve(wait = true), noting its keyframe in out->solved_keyframe: before the pose
+  // store gets a keyframe, whose windowed pose starts from the solved ones.
+  void WaitForWindow(OdometryFrame* out);
   // tracker.depth "window": sets what the frames after the solved keyframe `*kf` are tracked
   // against (the window's depth from `points`, its points in the keyframe's camera, else the
   // source's at the window's scale) and records it in kf->tracking_depth and its note.

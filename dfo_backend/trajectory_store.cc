@@ -36,7 +36,8 @@ void TrajectoryStore::AddFrame(int frame_index, int64_t timestamp_ns, int keyfra
   e.timestamp_ns = timestamp_ns;
   e.keyframe_index = keyframe_index;
   e.kf_from_frame = kf_from_frame;
-  if (scale_step && keyframe_index >= 0) e.step_scale = Get(keyframe_index).windowed_step_scale;
+  e.scale_step = scale_step && keyframe_index >= 0;
+  if (e.scale_step) e.step_scale = Get(keyframe_index).windowed_step_scale;
   Append(e);
 }
 
@@ -80,12 +81,17 @@ void TrajectoryStore::SetWindowedPose(int frame_index, const SE3d& world_from_kf
   e.windowed_world_from_kf = world_from_kf;
 }
 
-void TrajectoryStore::SetWindowedStepScale(int frame_index, double scale) {
+void TrajectoryStore::SetWindowedStepScale(int frame_index, double scale, bool rescale_added) {
   Entry& e = GetMutable(frame_index);
   DFO_CHECK(e.is_keyframe) << "frame " << frame_index << " is not a keyframe";
   DFO_CHECK(std::isfinite(scale) && scale > 0.0)
       << "step scale " << scale << " of keyframe " << frame_index << " is not positive";
   e.windowed_step_scale = scale;
+  if (!rescale_added) return;
+  for (size_t i = position_.at(frame_index) + 1; i < frames_.size(); ++i) {
+    Entry& f = frames_[i];
+    if (!f.is_keyframe && f.scale_step && f.keyframe_index == frame_index) f.step_scale = scale;
+  }
 }
 
 SE3d TrajectoryStore::ScaledStep(const Entry& e) {

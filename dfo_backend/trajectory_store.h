@@ -53,10 +53,13 @@ class TrajectoryStore {
   // kf_from_frame, in the windowed trajectory, of the frames added after this call with
   // scale_step and tracked against it (the window's depth over the depth they were tracked
   // against, so that their steps from the keyframe are in the scale of the keyframe's windowed
-  // pose). Frames added before keep theirs, so that a step once published does not change. A
-  // frame promoted to keyframe keeps its scaled step in its windowed pose. Throws InternalError
-  // when it is not a keyframe or the factor is not finite and positive.
-  void SetWindowedStepScale(int frame_index, double scale);
+  // pose). Frames added before keep theirs, so that a step once published does not change,
+  // unless `rescale_added`: then the frames already added with scale_step against the keyframe
+  // (and not promoted since) take it too (a solve that finished after frames were tracked
+  // against the same depth as the frames after it: the backend thread). A frame promoted to
+  // keyframe keeps its scaled step in its windowed pose. Throws InternalError when it is not a
+  // keyframe or the factor is not finite and positive.
+  void SetWindowedStepScale(int frame_index, double scale, bool rescale_added = false);
 
   bool Contains(int frame_index) const;
   bool IsKeyframe(int frame_index) const;
@@ -85,9 +88,10 @@ class TrajectoryStore {
     int keyframe_index = -1;  // the keyframe tracked against; -1 = none (then pose is absolute)
     SE3d kf_from_frame;       // pose relative to that keyframe (or world pose without one)
     double step_scale = 1.0;  // windowed: the factor on kf_from_frame's translation
+    bool scale_step = false;  // AddFrame's scale_step
     bool is_keyframe = false;
-    SE3d frontend_world_from_kf;  // keyframes: the frontend's pose
-    SE3d windowed_world_from_kf;  // keyframes: the backend's pose
+    SE3d frontend_world_from_kf;       // keyframes: the frontend's pose
+    SE3d windowed_world_from_kf;       // keyframes: the backend's pose
     double windowed_step_scale = 1.0;  // keyframes: SetWindowedStepScale
   };
   const Entry& Get(int frame_index) const;

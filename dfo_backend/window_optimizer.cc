@@ -4,6 +4,7 @@
 
 #include <algorithm>
 #include <array>
+#include <atomic>
 #include <chrono>
 #include <cmath>
 #include <limits>
@@ -29,9 +30,10 @@ void Require(bool ok, const std::string& key, const T& value, const std::string&
 }
 
 // Evaluates the compressed blocks of a solve before each of Ceres's evaluations, on up to
-// `threads` threads: thread t takes the t-th contiguous share of the blocks, and each block is
-// evaluated alone into its own cache (CompressedFeatureMetricCost::Prefetch), so what Ceres then
-// reads does not depend on the number of threads. Ceres hands the callback the parameters in the
+// `threads` threads taking chunks of blocks in turn (a thread that the frontend or the backend
+// thread delays takes fewer), and each block is evaluated alone into its own cache
+// (CompressedFeatureMetricCost::Prefetch), so what Ceres then reads does not depend on the
+// number of threads or on who evaluated what. Ceres hands the callback the parameters in the
 // solve's own buffers, the ones the blocks were added with.
 class BlockPrefetch : public ceres::EvaluationCallback {
  public:
@@ -46,29 +48,31 @@ class BlockPrefetch : public ceres::EvaluationCallback {
   void Add(const Block& block) { blocks_.push_back(block); }
 
   void PrepareForEvaluation(bool evaluate_jacobians, bool /*new_evaluation_point*/) override {
-    const auto run = [this, evaluate_jacobians](size_t begin, size_t end) {
+    const size_t n = blocks_.size();
+    std::atomic<size_t> next{0};
+    const auto run = [this, evaluate_jacobians, n, &next]() {
       // A block that fails here (or throws) is evaluated again by Ceres, which reports it.
       try {
-        for (size_t i = begin; i < end; ++i) {
-          const Block& b = blocks_[i];
-          b.cost->Prefetch(b.host_pose, b.target_pose, *b.inverse_depth, evaluate_jacobians);
+        for (size_t begin = next.fetch_add(kChunk); begin < n; begin = next.fetch_add(kChunk)) {
+          for (size_t i = begin; i < std::min(begin + kChunk, n); ++i) {
+            const Block& b = blocks_[i];
+            b.cost->Prefetch(b.host_pose, b.target_pose, *b.inverse_depth, evaluate_jacobians);
+          }
         }
       } catch (...) {
       }
     };
-    const size_t n = blocks_.size();
     // Below a few hundred blocks a thread costs more than it saves.
     const size_t threads = std::min<size_t>(threads_, std::max<size_t>(n / kMinBlocksPerThread, 1));
     std::vector<std::thread> pool;
-    for (size_t t = 1; t < threads; ++t) {
-      pool.emplace_back(run, n * t / threads, n * (t + 1) / threads);
-    }
-    run(0, n / threads);
+    for (size_t t = 1; t < threads; ++t) pool.emplace_back(run);
+    run();
     for (std::thread& thread : pool) thread.join();
   }
 
  private:
   static constexpr size_t kMinBlocksPerThread = 256;
+  static constexpr size_t kChunk = 64;
   int threads_;
   std::vector<Block> blocks_;
 };

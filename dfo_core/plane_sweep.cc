@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <array>
+#include <atomic>
 #include <cmath>
 #include <limits>
 #include <sstream>
@@ -187,12 +188,15 @@ PlaneSweepResult PlaneSweepDepth(const ImageF& reference, const PinholeCamera& c
   constexpr float kNone = std::numeric_limits<float>::infinity();
   std::vector<float> cost(static_cast<size_t>(num_depths) * n, kNone);
   const float* reference_pixels = reference.vector().data();
-  const auto sweep = [&](int first, int step) {
+  // Threads take the depths in turn; each depth's slice is computed alone, so the volume does
+  // not depend on who computed it.
+  std::atomic<int> next_depth{0};
+  const auto sweep = [&]() {
     std::vector<float> warped(n), valid(n), sum(n), count(n);
     // The warped view's grey level w, w^2, w times the reference, and whether it was inside.
     SummedAreas<4> sums;
     sums.Reset(w, h);
-    for (int k = first; k < num_depths; k += step) {
+    for (int k = next_depth++; k < num_depths; k = next_depth++) {
       const double rho = rho_of(k);
       std::fill(sum.begin(), sum.end(), 0.0f);
       std::fill(count.begin(), count.end(), 0.0f);
@@ -242,13 +246,10 @@ PlaneSweepResult PlaneSweepDepth(const ImageF& reference, const PinholeCamera& c
     }
   };
   const int threads = std::min(options.num_threads, num_depths);
-  if (threads <= 1) {
-    sweep(0, 1);
-  } else {
-    std::vector<std::thread> pool;
-    for (int t = 0; t < threads; ++t) pool.emplace_back(sweep, t, threads);
-    for (std::thread& thread : pool) thread.join();
-  }
+  std::vector<std::thread> pool;
+  for (int t = 1; t < threads; ++t) pool.emplace_back(sweep);
+  sweep();
+  for (std::thread& thread : pool) thread.join();
 
   PlaneSweepResult result;
   result.depth = ImageF(w, h, 1, 0.0f);

@@ -441,8 +441,11 @@ ConfigSchema BuildSchema() {
             "with one thread and no time limit), possibly slower");
   s.AddBool("run.backend_thread", false,
             "Window solves on their own thread, so that a keyframe's solve does not stall the "
-            "frames behind it (results then depend on timing; ignored with run.deterministic: "
-            "true, which keeps the sequential order)");
+            "frames behind it. With tracker.depth: source the trajectories and every figure but "
+            "the timings are those of the sequential order (only the poses streamed live "
+            "differ); with "
+            "tracker.depth: window they depend on timing, and run.deterministic: true keeps the "
+            "sequential order instead");
   s.AddInt("run.threads", 2,
            "Worker threads of the frontend and of the window's Ceres solves (1 for Ceres with "
            "run.deterministic); 0 = all hardware threads")

@@ -111,7 +111,10 @@ OdometryOptions OdometryOptionsFromConfig(const io::Config& config) {
   o.window = WindowOptionsFromConfig(config);
   o.tracking = TrackingDepthOptionsFromConfig(config);
   o.stereo = KeyframeStereoOptionsFromConfig(config);
-  o.backend_thread = config.GetBool("run.backend_thread") && !config.GetBool("run.deterministic");
+  // With the tracker on each keyframe's source depth the run's results do not depend on when a
+  // solve finishes (OdometryOptions::backend_thread); with it on the window's depth they do.
+  o.backend_thread = config.GetBool("run.backend_thread") &&
+                     (!config.GetBool("run.deterministic") || o.tracking.depth == "source");
   o.Check();
   return o;
 }

@@ -90,21 +90,16 @@ void LcmRunStreamer::OnFrame(const FrameRecord& frame, const SequenceRunResult& 
   const int keyframe_index = frame.keyframe ? t.index : frame.pose_keyframe_index;
   const SE3d kf_from_cam = frame.keyframe ? SE3d() : frame.kf_from_cam;
   const bool stored = store.Contains(t.index);
-  const auto publish_pose = [&](const SE3d& world_from_cam, int8_t source, const SE3d& step) {
-    publisher_.Publish(
-        options_.channels.pose,
-        io::MakePoseMessage(t.index, t.timestamp_ns, stored ? world_from_cam : t.world_from_cam,
-                            t.status, frame.keyframe, source, keyframe_index, step));
-  };
   if (result.has_frontend()) {
-    publish_pose(stored ? store.FrontendPose(t.index) : SE3d(), dfo::pose_t::SOURCE_FRONTEND,
-                 kf_from_cam);
+    PublishPose(frame, stored, stored ? store.FrontendPose(t.index) : SE3d(),
+                dfo::pose_t::SOURCE_FRONTEND, kf_from_cam);
   }
   if (result.has_windowed()) {
     // The windowed step carries the keyframe's step scale (window.rescale_source_steps).
     const SE3d step = stored && !frame.keyframe ? store.WindowedStep(t.index) : kf_from_cam;
-    publish_pose(stored ? store.WindowedPose(t.index) : SE3d(), dfo::pose_t::SOURCE_WINDOWED,
-                 step);
+    PublishPose(frame, stored, stored ? store.WindowedPose(t.index) : SE3d(),
+                dfo::pose_t::SOURCE_WINDOWED, step);
+    if (stored && !frame.keyframe && keyframe_index >= 0) published_steps_[t.index] = step;
     // The keyframe whose solve was applied with this frame (the frame itself, or an earlier
     // keyframe when the window solves on the backend thread).
     if (frame.solved_keyframe >= 0) PublishKeyframeBatch(frame.solved_keyframe, result, store);
@@ -113,6 +108,16 @@ void LcmRunStreamer::OnFrame(const FrameRecord& frame, const SequenceRunResult& 
   publish_ms_.push_back(
       std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - begin).count());
   publish_cpu_ms_.push_back(ThreadCpuMs() - cpu_begin_ms);
+}
+
+void LcmRunStreamer::PublishPose(const FrameRecord& frame, bool stored, const SE3d& world_from_cam,
+                                 int8_t source, const SE3d& step) {
+  const TrackedFrame& t = frame.tracked;
+  const int keyframe_index = frame.keyframe ? t.index : frame.pose_keyframe_index;
+  publisher_.Publish(
+      options_.channels.pose,
+      io::MakePoseMessage(t.index, t.timestamp_ns, stored ? world_from_cam : t.world_from_cam,
+                          t.status, frame.keyframe, source, keyframe_index, step));
 }
 
 void LcmRunStreamer::PublishKeyframeBatch(int keyframe_index, const SequenceRunResult& result,
@@ -138,6 +143,23 @@ void LcmRunStreamer::PublishKeyframeBatch(int keyframe_index, const SequenceRunR
   if (kf->window.marginalized_frame_index >= 0) add(kf->window.marginalized_frame_index, false);
   batch.num_keyframes = static_cast<int32_t>(batch.keyframes.size());
   publisher_.Publish(options_.channels.keyframes, batch);
+
+  // The frames published before this solve was applied: those whose step it rescaled go again.
+  // Frames before the keyframe are never rescaled again (solves are applied in order).
+  published_steps_.erase(published_steps_.begin(), published_steps_.lower_bound(keyframe_index));
+  for (auto it = result.frames.rbegin(); it != result.frames.rend(); ++it) {
+    const int index = it->tracked.index;
+    if (index <= keyframe_index) break;
+    const auto published = published_steps_.find(index);
+    if (published == published_steps_.end() || it->keyframe ||
+        it->pose_keyframe_index != keyframe_index || !store.Contains(index)) {
+      continue;
+    }
+    const SE3d step = store.WindowedStep(index);
+    if (step.translation() == published->second.translation()) continue;
+    PublishPose(*it, true, store.WindowedPose(index), dfo::pose_t::SOURCE_WINDOWED, step);
+    published->second = step;
+  }
 }
 
 void LcmRunStreamer::Finish(const SequenceRunResult& result) {

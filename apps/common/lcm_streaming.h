@@ -28,6 +28,7 @@
 
 #include <chrono>
 #include <cstdint>
+#include <map>
 #include <string>
 #include <unordered_map>
 #include <vector>
@@ -68,6 +69,10 @@ class LcmRunStreamer {
   // The keyframes_channel message of keyframe `keyframe_index` (its record in result.keyframes)
   // with the window keyframes' poses in `store`; OnFrame calls it for the frame's
   // solved_keyframe; dfo_run calls it for a solve applied after the last frame (backend thread).
+  // Frames already published against that keyframe whose windowed step the solve rescaled
+  // (backend thread, TrajectoryStore::SetWindowedStepScale's rescale_added) are published again
+  // with the new step, so that a subscriber keeping each frame's newest message has the
+  // trajectory file's poses.
   void PublishKeyframeBatch(int keyframe_index, const SequenceRunResult& result,
                             const TrajectoryStore& store);
   // After the run: the final status and the stop message (reason "finished", or the run's error).
@@ -85,11 +90,17 @@ class LcmRunStreamer {
 
  private:
   void PublishStatus(const SequenceRunResult& result);
+  // One pose message of `frame` (`stored`: it is in the pose store).
+  void PublishPose(const FrameRecord& frame, bool stored, const SE3d& world_from_cam, int8_t source,
+                   const SE3d& step);
 
   LcmStreamOptions options_;
   RunMode mode_;
   io::LcmPublisher publisher_;
   std::unordered_map<int, int64_t> timestamps_ns_;  // frame index -> timestamp, for batches
+  // The windowed step last published for each frame since the oldest keyframe whose solve may
+  // still rescale it (frame index -> kf_from_cam).
+  std::map<int, SE3d> published_steps_;
   std::vector<double> publish_ms_;
   std::vector<double> publish_cpu_ms_;
   std::chrono::steady_clock::time_point start_;

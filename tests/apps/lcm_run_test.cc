@@ -161,15 +161,21 @@ TEST(LcmConfig, SharedChannelOrEmptyUrlIsAnError) {
 // The log dfo_run writes holds, per frame, the poses of both estimates; read back (in-process
 // and by dfo_lcm_listen --log) it gives the trajectory files byte for byte.
 // The window on its own thread: its solves are published when applied (the last one after the
-// last frame), and the log still gives back the windowed trajectory file.
+// last frame), frames whose steps a late solve rescaled are published again, and the log still
+// gives back the windowed trajectory file. With the demo's tracker.depth source the thread runs
+// under run.deterministic too, and the trajectory files are the sequential run's.
 TEST(LcmRun, BackendThreadLogReadBackEqualsTheTrajectoryFile) {
   const std::string dir = test::MakeTempDir("lcm_log_run_thread");
   const std::string out = dir + "/run";
   const std::string log = dir + "/run.lcmlog";
   const CommandResult r = RunCommand(
-      DFO_RUN_EXE, RunArgs(out) + " --set run.deterministic=false --set run.backend_thread=true" +
-                       " --set lcm.log_path=" + log);
+      DFO_RUN_EXE, RunArgs(out) + " --set run.backend_thread=true --set lcm.log_path=" + log);
   ASSERT_EQ(r.status, 0) << r.out << r.err;
+  const CommandResult sequential = RunCommand(DFO_RUN_EXE, RunArgs(dir + "/sequential"));
+  ASSERT_EQ(sequential.status, 0) << sequential.out << sequential.err;
+  for (const char* file : {"/windowed_tum.txt", "/frontend_tum.txt", "/keyframes_tum.txt"}) {
+    EXPECT_EQ(Slurp(out + file), Slurp(dir + "/sequential" + file)) << file;
+  }
   io::LcmTrajectoryCollector collector;
   const io::LcmLogReadResult read =
       io::ReadLcmLog(log, [&](const std::string& channel, const void* data, size_t size) {

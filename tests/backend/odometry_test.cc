@@ -7,8 +7,10 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <condition_variable>
 #include <cstdio>
 #include <memory>
+#include <mutex>
 #include <random>
 #include <string>
 #include <vector>
@@ -360,6 +362,99 @@ TEST(Odometry, BackendThreadAppliesEverySolve) {
   // The threaded run tracks a few frames per keyframe against the scaled source depth; the scale
   // still holds (against 0.275 when tracking against the source alone).
   EXPECT_LT(spread[1], 0.1);
+}
+
+// Hand-made features that count the frames they were computed for, so that a solve can wait for
+// the frontend to start the next frame.
+class FrameCountingFeatures : public FeatureSource {
+ public:
+  std::string name() const override { return "handmade"; }
+  FeaturePyramid Compute(const Frame& frame, int num_levels) override {
+    {
+      std::lock_guard<std::mutex> lock(mutex_);
+      ++count_;
+    }
+    changed_.notify_all();
+    return handmade_.Compute(frame, num_levels);
+  }
+  int count() {
+    std::lock_guard<std::mutex> lock(mutex_);
+    return count_;
+  }
+  // Until `count` frames were started or Finish was called.
+  void WaitFor(int count) {
+    std::unique_lock<std::mutex> lock(mutex_);
+    changed_.wait(lock, [&] { return count_ >= count || finished_; });
+  }
+  // No more frames: releases every wait.
+  void Finish() {
+    {
+      std::lock_guard<std::mutex> lock(mutex_);
+      finished_ = true;
+    }
+    changed_.notify_all();
+  }
+
+ private:
+  HandmadeFeatureSource handmade_;
+  std::mutex mutex_;
+  std::condition_variable changed_;
+  int count_ = 0;
+  bool finished_ = false;
+};
+
+// With the tracker on each keyframe's source depth (and the keyframe stereo, which reads the
+// windowed poses of the frames before a keyframe) the backend thread gives the sequential run's
+// trajectories, keyframes and step scales bit for bit. Each solve waits until the frontend has
+// started the next frame, so that frames are tracked and booked before their keyframe's solve is
+// applied (the step scale must reach them too).
+TEST(Odometry, BackendThreadWithSourceDepthGivesTheSequentialResults) {
+  Trajectory windowed[2], frontend[2];
+  std::vector<double> step_scales[2];
+  int booked_before_solve = 0;
+  for (int threaded = 0; threaded < 2; ++threaded) {
+    OdometryOptions o = Deterministic(OdometryMode::kBoth);
+    o.tracking.depth = "source";
+    o.stereo.views = 3;
+    o.backend_thread = threaded == 1;
+    auto features = std::make_unique<FrameCountingFeatures>();
+    FrameCountingFeatures* counter = features.get();
+    if (threaded) {
+      // The frame count at the hand-over (on the frame thread; the next hand-over waits for this
+      // solve), then the solve waits for one more frame.
+      auto submitted = std::make_shared<int>(0);
+      o.keyframe_filter = [counter, submitted](KeyframeData*) { *submitted = counter->count(); };
+      o.before_solve = [counter, submitted](int) { counter->WaitFor(*submitted + 1); };
+    }
+    Odometry odometry(External(), o, std::move(features),
+                      std::make_unique<RandomScaleDepthSource>());
+    int pending = -1;
+    for (const Frame& f : Frames()) {
+      const OdometryFrame out = odometry.Process(f);
+      if (out.solved_keyframe >= 0 && out.solved_keyframe == pending) pending = -1;
+      if (pending >= 0 && !out.keyframe) ++booked_before_solve;
+      if (out.keyframe && out.solved_keyframe != out.tracked.index) pending = out.tracked.index;
+    }
+    counter->Finish();  // a keyframe on the last frame: its solve waits for no further frame
+    odometry.Flush();
+    windowed[threaded] = odometry.WindowedTrajectory();
+    frontend[threaded] = odometry.FrontendTrajectory();
+    for (const KeyframeRecord& kf : odometry.keyframes()) {
+      step_scales[threaded].push_back(kf.step_scale);
+      EXPECT_TRUE(kf.ba_ran);
+    }
+  }
+  std::printf("[ figures  ] frames booked before their keyframe's solve was applied: %d\n",
+              booked_before_solve);
+  EXPECT_GT(booked_before_solve, 0);
+  EXPECT_EQ(step_scales[1], step_scales[0]);
+  ASSERT_EQ(windowed[1].size(), windowed[0].size());
+  for (size_t i = 0; i < windowed[0].size(); ++i) {
+    EXPECT_EQ(windowed[1][i].world_from_cam.Matrix(), windowed[0][i].world_from_cam.Matrix())
+        << "frame " << i;
+    EXPECT_EQ(frontend[1][i].world_from_cam.Matrix(), frontend[0][i].world_from_cam.Matrix())
+        << "frame " << i;
+  }
 }
 
 // The capability: with a depth source whose every map has its own scale, tracking against the

@@ -116,6 +116,18 @@ TEST(TrajectoryStoreTest, StepScaleScalesOnlyMarkedStepsAndOnlyInTheWindowedTraj
   ExpectPoseNear(s.WindowedPose(4), Pose(4.5, 0.03) * Pose(1.0, 0.0));
   s.AddFrame(5, 50, 3, Pose(1.0, 0.0), /*scale_step=*/true);
   ExpectPoseNear(s.WindowedPose(5), Pose(4.5, 0.03) * Pose(0.5, 0.0));
+  // rescale_added: the frames added with scale_step against the keyframe take the new scale as
+  // well; the unmarked ones and promoted frames keep theirs.
+  s.AddFrame(6, 60, 3, Pose(2.0, 0.0), /*scale_step=*/false);
+  s.SetWindowedStepScale(3, 2.0, /*rescale_added=*/true);
+  ExpectPoseNear(s.WindowedPose(4), Pose(4.5, 0.03) * Pose(2.0, 0.0));
+  ExpectPoseNear(s.WindowedPose(5), Pose(4.5, 0.03) * Pose(2.0, 0.0));
+  ExpectPoseNear(s.WindowedPose(6), Pose(4.5, 0.03) * Pose(2.0, 0.0));
+  s.SetWindowedStepScale(0, 3.0, /*rescale_added=*/true);
+  ExpectPoseNear(s.WindowedPose(1),
+                 SE3d(Pose(1.0, 0.01, 0.5).so3(), 3.0 * Pose(1.0, 0.01, 0.5).translation()));
+  ExpectPoseNear(s.WindowedPose(2), Pose(2.0, 0.02));
+  ExpectPoseNear(s.WindowedPose(3), Pose(4.5, 0.03));           // promoted: kept
   EXPECT_THROW(s.SetWindowedStepScale(1, 2.0), InternalError);  // not a keyframe
   EXPECT_THROW(s.SetWindowedStepScale(0, 0.0), InternalError);
   EXPECT_THROW(s.SetWindowedStepScale(0, std::nan("")), InternalError);
