@@ -1,6 +1,7 @@
 #include "dfo_backend/keyframe_stereo.h"
 
 #include <algorithm>
+#include <chrono>
 #include <cmath>
 
 #include "dfo_core/check_option.h"
@@ -29,10 +30,12 @@ void KeyframeStereoOptions::Check() const {
   CheckOption(num_threads >= 1 && num_threads <= 256, "run.threads", num_threads, "in [1, 256]");
 }
 
-KeyframeStereoResult ApplyKeyframeStereo(const ImageF& reference, const PinholeCamera& camera,
-                                         const std::vector<StereoView>& views, double window_scale,
-                                         const KeyframeStereoOptions& options,
-                                         DepthPyramid* depth) {
+namespace {
+
+// ApplyKeyframeStereo without its timing.
+KeyframeStereoResult ApplyStereo(const ImageF& reference, const PinholeCamera& camera,
+                                 const std::vector<StereoView>& views, double window_scale,
+                                 const KeyframeStereoOptions& options, DepthPyramid* depth) {
   KeyframeStereoResult result;
   result.num_views = static_cast<int>(views.size());
   if (depth == nullptr || depth->num_levels() == 0 || views.size() < 2 || !(window_scale > 0.0) ||
@@ -82,6 +85,19 @@ KeyframeStereoResult ApplyKeyframeStereo(const ImageF& reference, const PinholeC
       depth->levels[l] = DownsampleDepthHalf(depth->levels[l - 1]);
     }
   }
+  return result;
+}
+
+}  // namespace
+
+KeyframeStereoResult ApplyKeyframeStereo(const ImageF& reference, const PinholeCamera& camera,
+                                         const std::vector<StereoView>& views, double window_scale,
+                                         const KeyframeStereoOptions& options,
+                                         DepthPyramid* depth) {
+  const auto start = std::chrono::steady_clock::now();
+  KeyframeStereoResult result = ApplyStereo(reference, camera, views, window_scale, options, depth);
+  result.milliseconds =
+      std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start).count();
   return result;
 }
 

@@ -53,10 +53,11 @@ struct KeyframeStereoOptions {
 
 // What ApplyKeyframeStereo did.
 struct KeyframeStereoResult {
-  int num_views = 0;       // views matched
-  int num_replaced = 0;    // finest-level pixels whose depth now comes from the stereo
-  double fraction = 0.0;   // num_replaced over the finest level's pixels
-  double confident = 0.0;  // share of the pixels the stereo was confident about
+  int num_views = 0;          // views matched
+  int num_replaced = 0;       // finest-level pixels whose depth now comes from the stereo
+  double fraction = 0.0;      // num_replaced over the finest level's pixels
+  double confident = 0.0;     // share of the pixels the stereo was confident about
+  double milliseconds = 0.0;  // wall time of the whole call (the plane sweep most of it)
 };
 
 // Replaces the finest level of *depth (source scale, metres; coarser levels rebuilt from it as

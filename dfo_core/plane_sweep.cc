@@ -186,13 +186,15 @@ PlaneSweepResult PlaneSweepDepth(const ImageF& reference, const PinholeCamera& c
   // Cost volume: mean over the views that see the whole window of 1 - ZNCC; +inf below
   // min_views.
   constexpr float kNone = std::numeric_limits<float>::infinity();
-  std::vector<float> cost(static_cast<size_t>(num_depths) * n, kNone);
+  // Only the wanted pixels' costs: cost[k * m + i] for depth k and wanted pixel i.
+  const size_t m = wanted_pixels.size();
+  std::vector<float> cost(static_cast<size_t>(num_depths) * m, kNone);
   const float* reference_pixels = reference.vector().data();
   // Threads take the depths in turn; each depth's slice is computed alone, so the volume does
   // not depend on who computed it.
   std::atomic<int> next_depth{0};
   const auto sweep = [&]() {
-    std::vector<float> warped(n), valid(n), sum(n), count(n);
+    std::vector<float> warped(n), valid(n), sum(m), count(m);
     // The warped view's grey level w, w^2, w times the reference, and whether it was inside.
     SummedAreas<4> sums;
     sums.Reset(w, h);
@@ -226,7 +228,8 @@ PlaneSweepResult PlaneSweepDepth(const ImageF& reference, const PinholeCamera& c
           return SummedAreas<4>::Sums{value, value * value, value * reference_pixels[p],
                                       static_cast<double>(valid[p])};
         });
-        for (const int p : wanted_pixels) {
+        for (size_t i = 0; i < m; ++i) {
+          const int p = wanted_pixels[i];
           const int x = p % w, y = p / w;
           const SummedAreas<4>::Sums window = sums.Window(x, y, r);
           if (window[3] < area - 0.5) continue;
@@ -235,13 +238,13 @@ PlaneSweepResult PlaneSweepDepth(const ImageF& reference, const PinholeCamera& c
           if (!(var > 1e-6)) continue;
           const double covariance = window[2] / area - mean * ref_mean[p];
           const double zncc = covariance / (ref_std[p] * std::sqrt(var));
-          sum[p] += static_cast<float>(1.0 - std::clamp(zncc, -1.0, 1.0));
-          count[p] += 1.0f;
+          sum[i] += static_cast<float>(1.0 - std::clamp(zncc, -1.0, 1.0));
+          count[i] += 1.0f;
         }
       }
-      float* slice = &cost[static_cast<size_t>(k) * n];
-      for (size_t p = 0; p < n; ++p) {
-        if (count[p] >= options.min_views) slice[p] = sum[p] / count[p];
+      float* slice = &cost[static_cast<size_t>(k) * m];
+      for (size_t i = 0; i < m; ++i) {
+        if (count[i] >= options.min_views) slice[i] = sum[i] / count[i];
       }
     }
   };
@@ -254,32 +257,49 @@ PlaneSweepResult PlaneSweepDepth(const ImageF& reference, const PinholeCamera& c
   PlaneSweepResult result;
   result.depth = ImageF(w, h, 1, 0.0f);
   size_t confident = 0;
-  const auto at = [&](int k, size_t p) { return cost[static_cast<size_t>(k) * n + p]; };
-  for (const int p : wanted_pixels) {
-    int best = -1;
-    for (int k = 0; k < num_depths; ++k) {
-      if (at(k, p) < kNone && (best < 0 || at(k, p) < at(best, p))) best = k;
+  // The volume is read depth by depth (rows of m costs, in memory order): the best sample of
+  // every pixel, then the lowest other local minimum more than 3 samples from it.
+  const auto row = [&](int k) { return &cost[static_cast<size_t>(k) * m]; };
+  std::vector<int> best(m, -1);
+  std::vector<float> best_cost(m, kNone);
+  for (int k = 0; k < num_depths; ++k) {
+    const float* c = row(k);
+    for (size_t i = 0; i < m; ++i) {
+      if (c[i] < kNone && (best[i] < 0 || c[i] < best_cost[i])) {
+        best[i] = k;
+        best_cost[i] = c[i];
+      }
     }
-    if (best <= 0 || best >= num_depths - 1) continue;
-    const double c_best = at(best, p);
-    if (!(c_best <= options.max_cost)) continue;
-    const double c_left = at(best - 1, p), c_right = at(best + 1, p);
-    if (!std::isfinite(c_left) || !std::isfinite(c_right)) continue;
-    double second = kNone;
-    for (int k = 0; k < num_depths; ++k) {
-      if (std::abs(k - best) <= 3) continue;
-      const float c = at(k, p);
-      const bool local_min =
-          (k == 0 || c <= at(k - 1, p)) && (k == num_depths - 1 || c <= at(k + 1, p));
-      if (local_min) second = std::min(second, double(c));
+  }
+  // Pixels whose best sample is inside the range, good enough, with finite neighbours.
+  std::vector<unsigned char> candidate(m, 0);
+  for (size_t i = 0; i < m; ++i) {
+    const int b = best[i];
+    if (b <= 0 || b >= num_depths - 1 || !(double(best_cost[i]) <= options.max_cost)) continue;
+    candidate[i] = std::isfinite(row(b - 1)[i]) && std::isfinite(row(b + 1)[i]) ? 1 : 0;
+  }
+  std::vector<double> second(m, kNone);
+  for (int k = 0; k < num_depths; ++k) {
+    const float* c = row(k);
+    const float* before = k > 0 ? row(k - 1) : nullptr;
+    const float* after = k + 1 < num_depths ? row(k + 1) : nullptr;
+    for (size_t i = 0; i < m; ++i) {
+      if (!candidate[i] || std::abs(k - best[i]) <= 3) continue;
+      const bool local_min = (!before || c[i] <= before[i]) && (!after || c[i] <= after[i]);
+      if (local_min) second[i] = std::min(second[i], double(c[i]));
     }
-    if (!(second >= options.uniqueness * c_best)) continue;
+  }
+  for (size_t i = 0; i < m; ++i) {
+    if (!candidate[i]) continue;
+    const double c_best = best_cost[i];
+    const double c_left = row(best[i] - 1)[i], c_right = row(best[i] + 1)[i];
+    if (!(second[i] >= options.uniqueness * c_best)) continue;
     const double curvature = c_left - 2.0 * c_best + c_right;
     const double offset =
         curvature > 0.0 ? std::clamp(0.5 * (c_left - c_right) / curvature, -0.5, 0.5) : 0.0;
-    const double rho = rho_of(best + offset);
+    const double rho = rho_of(best[i] + offset);
     if (!(rho > 0.0)) continue;
-    result.depth.vector()[p] = static_cast<float>(1.0 / rho);
+    result.depth.vector()[wanted_pixels[i]] = static_cast<float>(1.0 / rho);
     ++confident;
   }
   result.confident_fraction = n > 0 ? static_cast<double>(confident) / n : 0.0;

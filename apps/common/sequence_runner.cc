@@ -428,11 +428,12 @@ io::JsonValue MakeRunSummary(const SequenceRunResult& result, const RunEvaluatio
     tracking.push_back(f.tracking_ms);
     total.push_back(f.total_ms);
   }
-  std::vector<double> backend, solve, marginalization;
+  std::vector<double> backend, solve, marginalization, stereo;
   for (const KeyframeRecord& k : result.keyframes) {
     if (!k.ba_ran) continue;
     backend.push_back(k.backend_ms);
     solve.push_back(k.window.solve_ms);
+    if (k.stereo.num_views >= 2) stereo.push_back(k.stereo.milliseconds);
     marginalization.push_back(k.window.marginalization_ms);
   }
   io::JsonValue timing = io::JsonValue::Object();
@@ -443,6 +444,9 @@ io::JsonValue MakeRunSummary(const SequenceRunResult& result, const RunEvaluatio
   timing.Set("total_per_frame", TimingToJson(SummariseTimes(total)));
   timing.Set("backend_per_keyframe", TimingToJson(SummariseTimes(backend)));
   timing.Set("ba_solve_per_keyframe", TimingToJson(SummariseTimes(solve)));
+  if (!stereo.empty()) {
+    timing.Set("keyframe_stereo_per_keyframe", TimingToJson(SummariseTimes(stereo)));
+  }
   timing.Set("marginalization_per_keyframe", TimingToJson(SummariseTimes(marginalization)));
   s.Set("timing_ms", std::move(timing));
   s.Set("fps", result.wall_s > 0.0 ? static_cast<double>(result.frames.size()) / result.wall_s
