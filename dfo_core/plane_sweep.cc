@@ -258,50 +258,67 @@ PlaneSweepResult PlaneSweepDepth(const ImageF& reference, const PinholeCamera& c
   result.depth = ImageF(w, h, 1, 0.0f);
   size_t confident = 0;
   // The volume is read depth by depth (rows of m costs, in memory order): the best sample of
-  // every pixel, then the lowest other local minimum more than 3 samples from it.
+  // every pixel, then the lowest other local minimum more than 3 samples from it. Threads take
+  // contiguous shares of the pixels, each pixel decided alone.
   const auto row = [&](int k) { return &cost[static_cast<size_t>(k) * m]; };
   std::vector<int> best(m, -1);
   std::vector<float> best_cost(m, kNone);
-  for (int k = 0; k < num_depths; ++k) {
-    const float* c = row(k);
-    for (size_t i = 0; i < m; ++i) {
-      if (c[i] < kNone && (best[i] < 0 || c[i] < best_cost[i])) {
-        best[i] = k;
-        best_cost[i] = c[i];
+  std::vector<unsigned char> candidate(m, 0);
+  std::vector<double> second(m, kNone);
+  float* depth_out = result.depth.vector().data();
+  const auto select = [&](size_t begin, size_t end, size_t* confident_out) {
+    for (int k = 0; k < num_depths; ++k) {
+      const float* c = row(k);
+      for (size_t i = begin; i < end; ++i) {
+        if (c[i] < kNone && (best[i] < 0 || c[i] < best_cost[i])) {
+          best[i] = k;
+          best_cost[i] = c[i];
+        }
       }
     }
-  }
-  // Pixels whose best sample is inside the range, good enough, with finite neighbours.
-  std::vector<unsigned char> candidate(m, 0);
-  for (size_t i = 0; i < m; ++i) {
-    const int b = best[i];
-    if (b <= 0 || b >= num_depths - 1 || !(double(best_cost[i]) <= options.max_cost)) continue;
-    candidate[i] = std::isfinite(row(b - 1)[i]) && std::isfinite(row(b + 1)[i]) ? 1 : 0;
-  }
-  std::vector<double> second(m, kNone);
-  for (int k = 0; k < num_depths; ++k) {
-    const float* c = row(k);
-    const float* before = k > 0 ? row(k - 1) : nullptr;
-    const float* after = k + 1 < num_depths ? row(k + 1) : nullptr;
-    for (size_t i = 0; i < m; ++i) {
-      if (!candidate[i] || std::abs(k - best[i]) <= 3) continue;
-      const bool local_min = (!before || c[i] <= before[i]) && (!after || c[i] <= after[i]);
-      if (local_min) second[i] = std::min(second[i], double(c[i]));
+    // Pixels whose best sample is inside the range, good enough, with finite neighbours.
+    for (size_t i = begin; i < end; ++i) {
+      const int b = best[i];
+      if (b <= 0 || b >= num_depths - 1 || !(double(best_cost[i]) <= options.max_cost)) continue;
+      candidate[i] = std::isfinite(row(b - 1)[i]) && std::isfinite(row(b + 1)[i]) ? 1 : 0;
     }
+    for (int k = 0; k < num_depths; ++k) {
+      const float* c = row(k);
+      const float* before = k > 0 ? row(k - 1) : nullptr;
+      const float* after = k + 1 < num_depths ? row(k + 1) : nullptr;
+      for (size_t i = begin; i < end; ++i) {
+        if (!candidate[i] || std::abs(k - best[i]) <= 3) continue;
+        const bool local_min = (!before || c[i] <= before[i]) && (!after || c[i] <= after[i]);
+        if (local_min) second[i] = std::min(second[i], double(c[i]));
+      }
+    }
+    size_t count = 0;
+    for (size_t i = begin; i < end; ++i) {
+      if (!candidate[i]) continue;
+      const double c_best = best_cost[i];
+      const double c_left = row(best[i] - 1)[i], c_right = row(best[i] + 1)[i];
+      if (!(second[i] >= options.uniqueness * c_best)) continue;
+      const double curvature = c_left - 2.0 * c_best + c_right;
+      const double offset =
+          curvature > 0.0 ? std::clamp(0.5 * (c_left - c_right) / curvature, -0.5, 0.5) : 0.0;
+      const double rho = rho_of(best[i] + offset);
+      if (!(rho > 0.0)) continue;
+      depth_out[wanted_pixels[i]] = static_cast<float>(1.0 / rho);
+      ++count;
+    }
+    *confident_out = count;
+  };
+  const size_t select_threads =
+      std::max<size_t>(1, std::min<size_t>(static_cast<size_t>(options.num_threads), m / 1024));
+  std::vector<size_t> confident_of(select_threads, 0);
+  std::vector<std::thread> selectors;
+  for (size_t t = 1; t < select_threads; ++t) {
+    selectors.emplace_back(select, m * t / select_threads, m * (t + 1) / select_threads,
+                           &confident_of[t]);
   }
-  for (size_t i = 0; i < m; ++i) {
-    if (!candidate[i]) continue;
-    const double c_best = best_cost[i];
-    const double c_left = row(best[i] - 1)[i], c_right = row(best[i] + 1)[i];
-    if (!(second[i] >= options.uniqueness * c_best)) continue;
-    const double curvature = c_left - 2.0 * c_best + c_right;
-    const double offset =
-        curvature > 0.0 ? std::clamp(0.5 * (c_left - c_right) / curvature, -0.5, 0.5) : 0.0;
-    const double rho = rho_of(best[i] + offset);
-    if (!(rho > 0.0)) continue;
-    result.depth.vector()[wanted_pixels[i]] = static_cast<float>(1.0 / rho);
-    ++confident;
-  }
+  select(0, m / select_threads, &confident_of[0]);
+  for (std::thread& thread : selectors) thread.join();
+  for (size_t c : confident_of) confident += c;
   result.confident_fraction = n > 0 ? static_cast<double>(confident) / n : 0.0;
   return result;
 }

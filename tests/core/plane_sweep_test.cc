@@ -87,7 +87,8 @@ TEST(PlaneSweepTest, DepthScalesWithTheTranslations) {
   EXPECT_NEAR(std::exp(Quantile(errors, 0.5)), 2.0, 0.03);
 }
 
-// Threads share the depth samples; the result does not depend on their number.
+// Threads share the depth samples, then the pixels of the minimum search; the result does not
+// depend on their number.
 TEST(PlaneSweepTest, ThreadCountDoesNotChangeTheResult) {
   const SweepCase c = MakeCase(40, 1.0);
   PlaneSweepOptions options;
