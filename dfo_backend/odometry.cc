@@ -117,7 +117,6 @@ OdometryFrame Odometry::Process(const Frame& frame) {
         {frame.index, out.tracked.status == TrackingStatus::kLost, GreyOf(frame.image)});
     while (static_cast<int>(recent_.size()) > options_.stereo.views + 1) recent_.pop_front();
   }
-  out.timings = frontend_->last_timings();
   const TrackedFrame& t = out.tracked;
   // Lost against the keyframe, tracked against the previous frame: that frame becomes a keyframe
   // first, so that this one is booked against it.
