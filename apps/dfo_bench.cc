@@ -38,6 +38,7 @@
 #include "apps/learned_wiring.h"
 #include "dfo_core/error.h"
 #include "dfo_core/synthetic/synthetic_sequence.h"
+#include "dfo_core/timing.h"
 #include "dfo_frontend/frontend.h"
 #include "dfo_io/dataset.h"
 #include "dfo_io/synth_writer.h"
@@ -225,7 +226,7 @@ void TrackerBenchmark(const Args& args) {
   for (const Frame& frame : frames) {
     const auto t0 = std::chrono::steady_clock::now();
     const TrackedFrame tracked = frontend.Process(frame);
-    process.push_back(apps::MillisecondsSince(t0));
+    process.push_back(MsSince(t0));
     const FrontendTimings& t = frontend.last_timings();
     features.push_back(t.features_ms);
     depth.push_back(t.depth_ms);

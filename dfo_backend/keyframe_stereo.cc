@@ -7,6 +7,7 @@
 #include "dfo_core/check_option.h"
 #include "dfo_core/error.h"
 #include "dfo_core/image_pyramid.h"
+#include "dfo_core/timing.h"
 
 namespace dfo {
 
@@ -96,8 +97,7 @@ KeyframeStereoResult ApplyKeyframeStereo(const ImageF& reference, const PinholeC
                                          DepthPyramid* depth) {
   const auto start = std::chrono::steady_clock::now();
   KeyframeStereoResult result = ApplyStereo(reference, camera, views, window_scale, options, depth);
-  result.milliseconds =
-      std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start).count();
+  result.milliseconds = MsSince(start);
   return result;
 }
 

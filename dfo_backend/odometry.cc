@@ -6,6 +6,7 @@
 #include <utility>
 
 #include "dfo_core/error.h"
+#include "dfo_core/timing.h"
 
 namespace dfo {
 namespace {
@@ -26,11 +27,6 @@ ImageF GreyOf(const ImageU8& image) {
     }
   }
   return grey;
-}
-
-double MsSince(std::chrono::steady_clock::time_point start) {
-  return std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start)
-      .count();
 }
 
 }  // namespace
@@ -204,8 +200,7 @@ void Odometry::BecomeKeyframe(const TrackedFrame& t, KeyframeReason reason, Odom
   if (!window_) return;
   const auto start = std::chrono::steady_clock::now();
   // The window takes one keyframe at a time: the previous solve finishes first.
-  const int solved = ApplyPendingSolve(/*wait=*/true);
-  if (solved >= 0) out->solved_keyframe = solved;
+  WaitForWindow(out);
   SubmitToWindow(t, data);
   if (!options_.backend_thread) {
     ApplyPendingSolve(/*wait=*/true);
@@ -279,9 +274,8 @@ void Odometry::SubmitToWindow(const TrackedFrame& t, KeyframeData* given) {
     return window->AddKeyframe(std::move(d));
   };
   if (options_.backend_thread) {
-    pending->result = std::async(std::launch::async, [solve, d = std::move(data)]() mutable {
-      return solve(std::move(d));
-    });
+    pending->result = std::async(
+        std::launch::async, [solve, d = std::move(data)]() mutable { return solve(std::move(d)); });
   } else {
     std::promise<WindowResult> promise;
     pending->result = promise.get_future();
@@ -307,8 +301,7 @@ int Odometry::ApplyPendingSolve(bool wait) {
   kf->ba_ran = true;
   // From the hand-over to the end of the solve (not to this call, which with the backend thread
   // may come frames later).
-  kf->backend_ms =
-      std::chrono::duration<double, std::milli>(pending->finished - pending->start).count();
+  kf->backend_ms = MsBetween(pending->start, pending->finished);
   const int t = pending->frame_index;
   bool finite = true;
   for (const auto& [index, pose] : kf->window.keyframe_poses) finite &= IsFinitePose(pose);

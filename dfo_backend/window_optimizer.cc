@@ -16,6 +16,7 @@
 #include "dfo_backend/marginalization.h"
 #include "dfo_backend/pose_manifold.h"
 #include "dfo_core/error.h"
+#include "dfo_core/timing.h"
 
 namespace dfo {
 
@@ -76,11 +77,6 @@ class BlockPrefetch : public ceres::EvaluationCallback {
   int threads_;
   std::vector<Block> blocks_;
 };
-
-double MsSince(std::chrono::steady_clock::time_point start) {
-  return std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start)
-      .count();
-}
 
 // Zooms whose blurred features a keyframe keeps (WindowOptions::zoom_blur_sigma_px): 1.1, 1.2,
 // ... up to max_stretch.

@@ -8,6 +8,7 @@
 #include <utility>
 
 #include "dfo_core/error.h"
+#include "dfo_core/timing.h"
 
 namespace dfo {
 
@@ -39,11 +40,6 @@ struct Frontend::State {
 };
 
 namespace {
-
-double MsSince(std::chrono::steady_clock::time_point start) {
-  return std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start)
-      .count();
-}
 
 bool IsFinite(const SE3d& pose) {
   return pose.translation().allFinite() && pose.quaternion().coeffs().allFinite();

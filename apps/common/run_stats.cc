@@ -11,6 +11,8 @@
 #include <string>
 #include <thread>
 
+#include "dfo_core/timing.h"
+
 namespace dfo::apps {
 
 double Percentile(std::vector<double> values, double p) {
@@ -95,7 +97,7 @@ OtherLoadMeter::OtherLoadMeter()
       start_self_s_(SelfCpuSeconds()) {}
 
 double OtherLoadMeter::OtherFraction() const {
-  const double wall = MillisecondsSince(start_) / 1000.0;
+  const double wall = MsSince(start_) / 1000.0;
   const unsigned cores = std::max(1u, std::thread::hardware_concurrency());
   const double other =
       (MachineBusySeconds() - start_busy_s_) - (SelfCpuSeconds() - start_self_s_);

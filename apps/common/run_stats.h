@@ -53,12 +53,6 @@ class OtherLoadMeter {
   double start_self_s_ = 0.0;
 };
 
-// Milliseconds since `start` on the steady clock.
-inline double MillisecondsSince(std::chrono::steady_clock::time_point start) {
-  return std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start)
-      .count();
-}
-
 }  // namespace dfo::apps
 
 #endif  // DFO_APPS_COMMON_RUN_STATS_H_

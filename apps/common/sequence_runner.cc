@@ -19,6 +19,7 @@
 #include "apps/common/cli.h"
 #include "apps/common/run_stats.h"
 #include "dfo_core/error.h"
+#include "dfo_core/timing.h"
 #include "dfo_io/file_writer.h"
 #include "dfo_io/plot.h"
 #include "dfo_io/trajectory_io.h"
@@ -151,7 +152,7 @@ SequenceRunResult RunSequence(const FrameProvider& provider, Odometry* odometry,
       io::LoadedFrame loaded = provider.Load(i);
       FrameRecord record;
       record.ground_truth = loaded.world_from_cam;
-      record.load_ms = MillisecondsSince(frame_start);
+      record.load_ms = MsSince(frame_start);
       const Frame frame = ToFrame(std::move(loaded));
       OdometryFrame out = odometry->Process(frame);
       record.tracked = std::move(out.tracked);
@@ -207,7 +208,7 @@ SequenceRunResult RunSequence(const FrameProvider& provider, Odometry* odometry,
       }
       if (out.solved_keyframe >= 0)
         RefreshKeyframe(*odometry, out.solved_keyframe, options, &result);
-      record.total_ms = MillisecondsSince(frame_start);
+      record.total_ms = MsSince(frame_start);
       result.frames.push_back(std::move(record));
       if (options.frame_observer) options.frame_observer(result.frames.back(), result, *odometry);
     } catch (const std::exception& e) {

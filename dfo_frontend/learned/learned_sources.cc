@@ -8,6 +8,7 @@
 
 #include "dfo_core/check_option.h"
 #include "dfo_core/error.h"
+#include "dfo_core/timing.h"
 #include "dfo_frontend/learned/internal/device.h"
 #include "dfo_frontend/learned/internal/model_file.h"
 #include "dfo_frontend/learned/internal/networks.h"
@@ -282,8 +283,7 @@ void LearnedModel::Impl::Run(const Frame& frame, bool want_features, bool want_d
     stats.ran_depth_network = true;
     stats.ran_feature_network = true;
   }
-  stats.network_ms +=
-      std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start).count();
+  stats.network_ms += MsSince(start);
   key = k;
 }
 
