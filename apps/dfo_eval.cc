@@ -30,6 +30,7 @@
 #include "dfo_core/plane_sweep.h"
 #include "dfo_io/dataset.h"
 #include "dfo_io/depth_colour.h"
+#include "dfo_io/file_writer.h"
 #include "dfo_io/image_io.h"
 #include "dfo_io/json.h"
 #include "dfo_io/plot.h"
@@ -91,6 +92,11 @@ constexpr const char* kDepthHelp =
     "  --min-depth M          ground truth counts when > M metres (default 0.001)\n"
     "  --max-depth M          ... and < M metres; predictions clamped to [min, max] (default 80)\n"
     "  --median-scaling       scale each prediction by median(gt) / median(pred) first\n"
+    "  --per-image FILE       also write one CSV line per image: image, pixels, the medians of\n"
+    "                         the ground truth and of the raw prediction (metres, over the\n"
+    "                         valid pixels), their ratio, abs_rel, rmse_log, a1 (errors after\n"
+    "                         median scaling when it is asked for); an image without valid\n"
+    "                         ground truth has pixels 0 and empty fields\n"
     "  --json                 print one JSON object on stdout instead of text\n"
     "  --help                 this text\n";
 
@@ -387,9 +393,10 @@ int RunDepth(int argc, char** argv) {
     std::cout << kDepthHelp;
     return 0;
   }
-  const Options opt("depth", argc, argv,
-                    {"--gt", "--pred", "--gt-scale", "--pred-scale", "--min-depth", "--max-depth"},
-                    {"--json", "--median-scaling"});
+  const Options opt(
+      "depth", argc, argv,
+      {"--gt", "--pred", "--gt-scale", "--pred-scale", "--min-depth", "--max-depth", "--per-image"},
+      {"--json", "--median-scaling"});
   const std::string gt_dir = opt.Required("--gt");
   const std::string pred_dir = opt.Required("--pred");
   const double gt_scale = opt.Number("--gt-scale", 256.0);
@@ -421,6 +428,8 @@ int RunDepth(int argc, char** argv) {
   }
   std::sort(names.begin(), names.end());
   if (names.empty()) throw InputError("no .png depth map in ground-truth folder " + gt_dir);
+  const std::string per_image_path = opt.Get("--per-image", "");
+  if (!per_image_path.empty()) io::CheckFileWritable(per_image_path, "per-image CSV");
 
   std::vector<DepthErrors> per_image;
   for (const std::string& name : names) {
@@ -441,6 +450,28 @@ int RunDepth(int argc, char** argv) {
   }
   const DepthErrors mean = AverageDepthErrors(per_image);
   const size_t skipped = names.size() - mean.num_images;
+  if (!per_image_path.empty()) {
+    std::string csv =
+        "image,pixels,median_gt_m,median_pred_m,median_gt_over_pred,abs_rel,rmse_log,a1\n";
+    char buf[256];
+    for (size_t i = 0; i < names.size(); ++i) {
+      const DepthErrors& e = per_image[i];
+      if (e.num_images == 0) {
+        csv += names[i] + ",0,,,,,,\n";
+        continue;
+      }
+      std::snprintf(buf, sizeof(buf), ",%zu,%.4f,%.4f,", e.num_pixels, e.median_ground_truth,
+                    e.median_prediction);
+      csv += names[i] + buf;
+      if (e.median_prediction > 0.0) {  // empty ratio for a prediction with no positive median
+        std::snprintf(buf, sizeof(buf), "%.5f", e.median_ground_truth / e.median_prediction);
+        csv += buf;
+      }
+      std::snprintf(buf, sizeof(buf), ",%.5f,%.5f,%.5f\n", e.abs_rel, e.rmse_log, e.a1);
+      csv += buf;
+    }
+    io::WriteFileAtomically(per_image_path, csv, "per-image CSV");
+  }
 
   if (opt.Has("--json")) {
     io::JsonValue out = io::JsonValue::Object();

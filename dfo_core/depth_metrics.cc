@@ -61,12 +61,13 @@ DepthErrors ComputeDepthErrors(const ImageF& ground_truth, const ImageF& predict
   DepthErrors e;
   if (gt.empty()) {
     e.abs_rel = e.sq_rel = e.rmse = e.rmse_log = e.a1 = e.a2 = e.a3 = kNaN;
-    e.median_scale = kNaN;
+    e.median_scale = e.median_ground_truth = e.median_prediction = kNaN;
     return e;
   }
+  e.median_ground_truth = Median(gt);
+  e.median_prediction = Median(pred);
   if (options.median_scaling) {
-    const double pred_median = Median(pred);
-    e.median_scale = pred_median > 0.0 ? Median(gt) / pred_median : 1.0;
+    e.median_scale = e.median_prediction > 0.0 ? e.median_ground_truth / e.median_prediction : 1.0;
     for (double& p : pred) p *= e.median_scale;
   }
   for (double& p : pred) p = std::min(std::max(p, options.min_depth), options.max_depth);
@@ -104,6 +105,7 @@ DepthErrors ComputeDepthErrors(const ImageF& ground_truth, const ImageF& predict
 DepthErrors AverageDepthErrors(const std::vector<DepthErrors>& per_image) {
   DepthErrors mean;
   mean.median_scale = 0.0;
+  mean.median_ground_truth = mean.median_prediction = kNaN;  // per image only
   size_t count = 0;
   for (const DepthErrors& e : per_image) {
     if (e.num_images == 0) continue;

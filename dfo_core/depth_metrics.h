@@ -38,6 +38,11 @@ struct DepthErrors {
   size_t num_pixels = 0;      // valid pixels used (summed over images for an average)
   size_t num_images = 0;      // 1 for one image with valid pixels, 0 for none; images averaged
   double median_scale = 1.0;  // the median-scaling ratio used (mean over images for an average)
+  // One image only (NaN for an average): the medians over its valid pixels of the ground truth and
+  // of the raw prediction (before median scaling and clamping; a non-finite prediction counts as
+  // 0), in metres. median_ground_truth / median_prediction is the ratio median scaling uses.
+  double median_ground_truth = 0.0;
+  double median_prediction = 0.0;
   // For an average only: population standard deviation over mean of the per-image median-scaling
   // ratios (how much the prediction's own scale varies from image to image; 0 for one image).
   double median_scale_cv = 0.0;

@@ -11,6 +11,7 @@
 #include <string>
 
 #include "dfo_core/trajectory.h"
+#include "dfo_io/file_reader.h"
 #include "dfo_io/image_io.h"
 #include "dfo_io/json.h"
 #include "dfo_io/trajectory_io.h"
@@ -280,6 +281,29 @@ TEST(DfoEval, DepthKnownValuesAndPairingErrors) {
   EXPECT_NEAR(io::ParseJson(r.out)["abs_rel"].AsNumber(), 0.0, 1e-6);
   // Per-image ratios 1 / 1.2 and 1: mean 11 / 12, population deviation 1 / 12.
   EXPECT_NEAR(io::ParseJson(r.out)["median_scale_cv"].AsNumber(), 1.0 / 11.0, 1e-3);
+
+  // The per-image CSV: raw medians, their ratio, and the errors after the scaling asked for.
+  io::WriteDepthPng(dir + "/gt/c.png", ImageF(16, 8, 1, 0.0f), 256.0);  // no ground truth
+  io::WriteDepthPng(dir + "/pred/c.png", gt, 256.0);
+  r = RunEval("depth --gt " + dir + "/gt --pred " + dir + "/pred --per-image " + dir +
+              "/out/images.csv");
+  ASSERT_EQ(r.status, 0) << r.err;
+  EXPECT_NE(r.out.find("1 without valid ground truth skipped"), std::string::npos) << r.out;
+  EXPECT_EQ(io::ReadWholeFile(dir + "/out/images.csv", "per-image CSV", io::kMaxTextFileBytes),
+            "image,pixels,median_gt_m,median_pred_m,median_gt_over_pred,abs_rel,rmse_log,a1\n"
+            "a.png,127,10.0000,12.0000,0.83333,0.20000,0.18232,1.00000\n"
+            "b.png,127,10.0000,10.0000,1.00000,0.00000,0.00000,1.00000\n"
+            "c.png,0,,,,,,\n");
+  r = RunEval("depth --gt " + dir + "/gt --pred " + dir + "/pred --median-scaling --per-image " +
+              dir + "/out/images.csv");
+  ASSERT_EQ(r.status, 0) << r.err;
+  EXPECT_NE(io::ReadWholeFile(dir + "/out/images.csv", "per-image CSV", io::kMaxTextFileBytes)
+                .find("a.png,127,10.0000,12.0000,0.83333,0.00000,0.00000,1.00000\n"),
+            std::string::npos);
+  ExpectCleanFailure(
+      RunEval("depth --gt " + dir + "/gt --pred " + dir + "/pred --per-image " + dir + "/gt"),
+      "per-image CSV " + dir + "/gt: cannot be written");
+  std::filesystem::remove(dir + "/gt/c.png");
 
   std::filesystem::remove(dir + "/pred/b.png");
   ExpectCleanFailure(RunEval("depth --gt " + dir + "/gt --pred " + dir + "/pred"),

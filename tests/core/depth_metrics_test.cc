@@ -62,6 +62,10 @@ TEST(DepthMetrics, MedianScalingRemovesAGlobalScaleAndClampsPredictions) {
   EXPECT_NEAR(e.median_scale, 4.0, 1e-6);
   EXPECT_NEAR(e.abs_rel, 0.0, 1e-6);
   EXPECT_NEAR(e.a1, 1.0, 1e-12);
+  // The raw medians (16 values: the mean of the middle two, 8.5), with or without the scaling.
+  EXPECT_NEAR(e.median_ground_truth, 8.5, 1e-6);
+  EXPECT_NEAR(e.median_prediction, 8.5 / 4.0, 1e-6);
+  EXPECT_NEAR(ComputeDepthErrors(gt, pred).median_prediction, 8.5 / 4.0, 1e-6);
 
   // Without scaling a zero prediction is clamped to min_depth, a huge one to max_depth.
   ImageF one(2, 1, 1, 10.0f), bad(2, 1);
@@ -84,6 +88,8 @@ TEST(DepthMetrics, AverageIsOverImagesNotPixels) {
   EXPECT_EQ(mean.num_images, 2u);
   EXPECT_EQ(mean.num_pixels, 101u);
   EXPECT_NEAR(mean.abs_rel, 0.1, 1e-12);
+  EXPECT_TRUE(std::isnan(per_image[2].median_ground_truth));
+  EXPECT_TRUE(std::isnan(mean.median_prediction));  // medians are per image only
   EXPECT_TRUE(std::isnan(AverageDepthErrors({}).abs_rel));
 }
 
