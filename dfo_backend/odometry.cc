@@ -15,15 +15,16 @@ bool IsFinitePose(const SE3d& pose) {
   return pose.translation().allFinite() && pose.quaternion().coeffs().allFinite();
 }
 
-// The frame's image as grey levels (the mean of its channels).
+// The frame's image as grey levels 0-255 for the keyframe stereo (the plane sweep's units): an
+// RGB image by the ITU-R BT.601 weights, as the tracker's hand-made features take it. The frontend
+// has checked the channel count (1 or 3) before a frame gets here.
 ImageF GreyOf(const ImageU8& image) {
   ImageF grey(image.width(), image.height(), 1, 0.0f);
-  const int channels = image.channels();
+  const bool rgb = image.channels() == 3;
   for (int y = 0; y < image.height(); ++y) {
     for (int x = 0; x < image.width(); ++x) {
-      float sum = 0.0f;
-      for (int c = 0; c < channels; ++c) sum += image(x, y, c);
-      grey(x, y) = sum / channels;
+      grey(x, y) = rgb ? 0.299f * image(x, y, 0) + 0.587f * image(x, y, 1) + 0.114f * image(x, y, 2)
+                       : static_cast<float>(image(x, y, 0));
     }
   }
   return grey;

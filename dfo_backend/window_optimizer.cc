@@ -10,12 +10,12 @@
 #include <limits>
 #include <map>
 #include <sstream>
-#include <thread>
 
 #include "dfo_backend/feature_metric_cost.h"
 #include "dfo_backend/marginalization.h"
 #include "dfo_backend/pose_manifold.h"
 #include "dfo_core/error.h"
+#include "dfo_core/parallel.h"
 #include "dfo_core/timing.h"
 
 namespace dfo {
@@ -65,10 +65,7 @@ class BlockPrefetch : public ceres::EvaluationCallback {
     };
     // Below a few hundred blocks a thread costs more than it saves.
     const size_t threads = std::min<size_t>(threads_, std::max<size_t>(n / kMinBlocksPerThread, 1));
-    std::vector<std::thread> pool;
-    for (size_t t = 1; t < threads; ++t) pool.emplace_back(run);
-    run();
-    for (std::thread& thread : pool) thread.join();
+    RunOnThreads(static_cast<int>(threads), [&run](int) { run(); });
   }
 
  private:

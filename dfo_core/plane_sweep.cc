@@ -7,10 +7,10 @@
 #include <limits>
 #include <sstream>
 #include <string>
-#include <thread>
 
 #include "dfo_core/check_option.h"
 #include "dfo_core/error.h"
+#include "dfo_core/parallel.h"
 
 namespace dfo {
 namespace {
@@ -248,11 +248,7 @@ PlaneSweepResult PlaneSweepDepth(const ImageF& reference, const PinholeCamera& c
       }
     }
   };
-  const int threads = std::min(options.num_threads, num_depths);
-  std::vector<std::thread> pool;
-  for (int t = 1; t < threads; ++t) pool.emplace_back(sweep);
-  sweep();
-  for (std::thread& thread : pool) thread.join();
+  RunOnThreads(std::min(options.num_threads, num_depths), [&sweep](int) { sweep(); });
 
   PlaneSweepResult result;
   result.depth = ImageF(w, h, 1, 0.0f);
@@ -311,13 +307,9 @@ PlaneSweepResult PlaneSweepDepth(const ImageF& reference, const PinholeCamera& c
   const size_t select_threads =
       std::max<size_t>(1, std::min<size_t>(static_cast<size_t>(options.num_threads), m / 1024));
   std::vector<size_t> confident_of(select_threads, 0);
-  std::vector<std::thread> selectors;
-  for (size_t t = 1; t < select_threads; ++t) {
-    selectors.emplace_back(select, m * t / select_threads, m * (t + 1) / select_threads,
-                           &confident_of[t]);
-  }
-  select(0, m / select_threads, &confident_of[0]);
-  for (std::thread& thread : selectors) thread.join();
+  RunOnThreads(static_cast<int>(select_threads), [&](int t) {
+    select(m * t / select_threads, m * (t + 1) / select_threads, &confident_of[t]);
+  });
   for (size_t c : confident_of) confident += c;
   result.confident_fraction = n > 0 ? static_cast<double>(confident) / n : 0.0;
   return result;

@@ -43,6 +43,11 @@ io::LcmPublisherOptions PublisherOptions(const LcmStreamOptions& options) {
   return p;
 }
 
+// The keyframe a frame's published pose is composed from: a keyframe is its own reference.
+int PoseKeyframeIndex(const FrameRecord& frame) {
+  return frame.keyframe ? frame.tracked.index : frame.pose_keyframe_index;
+}
+
 }  // namespace
 
 LcmRunStreamer::LcmRunStreamer(const LcmStreamOptions& options, RunMode mode)
@@ -87,7 +92,7 @@ void LcmRunStreamer::OnFrame(const FrameRecord& frame, const SequenceRunResult& 
   const TrajectoryStore& store = poses;
   // A keyframe is its own reference; other frames say what their pose is composed of, so that
   // a subscriber can follow their keyframe when the window moves it.
-  const int keyframe_index = frame.keyframe ? t.index : frame.pose_keyframe_index;
+  const int keyframe_index = PoseKeyframeIndex(frame);
   const SE3d kf_from_cam = frame.keyframe ? SE3d() : frame.kf_from_cam;
   const bool stored = store.Contains(t.index);
   if (result.has_frontend()) {
@@ -113,11 +118,10 @@ void LcmRunStreamer::OnFrame(const FrameRecord& frame, const SequenceRunResult& 
 void LcmRunStreamer::PublishPose(const FrameRecord& frame, bool stored, const SE3d& world_from_cam,
                                  int8_t source, const SE3d& step) {
   const TrackedFrame& t = frame.tracked;
-  const int keyframe_index = frame.keyframe ? t.index : frame.pose_keyframe_index;
   publisher_.Publish(
       options_.channels.pose,
       io::MakePoseMessage(t.index, t.timestamp_ns, stored ? world_from_cam : t.world_from_cam,
-                          t.status, frame.keyframe, source, keyframe_index, step));
+                          t.status, frame.keyframe, source, PoseKeyframeIndex(frame), step));
 }
 
 void LcmRunStreamer::PublishKeyframeBatch(int keyframe_index, const SequenceRunResult& result,

@@ -2,10 +2,10 @@
 
 #include <algorithm>
 #include <cmath>
-#include <thread>
 #include <vector>
 
 #include "dfo_core/error.h"
+#include "dfo_core/parallel.h"
 #include "dfo_core/synthetic/noise.h"
 
 namespace dfo::synthetic {
@@ -599,18 +599,9 @@ RenderedView RenderView(const SyntheticWorld& world, const PinholeCamera& camera
   view.labels = ImageU8(camera.width, camera.height, 1);
   std::vector<int> ids(static_cast<size_t>(camera.width) * camera.height, kSky);
   const int threads = std::min(num_threads, camera.height);
-  auto run = [threads](const auto& work) {
-    if (threads == 1) {
-      work(0);
-      return;
-    }
-    std::vector<std::thread> pool;
-    for (int k = 0; k < threads; ++k) pool.emplace_back(work, k);
-    for (auto& th : pool) th.join();
-  };
-  run([&](int k) { renderer.RenderPass(k, threads, &view, &ids); });
+  RunOnThreads(threads, [&](int k) { renderer.RenderPass(k, threads, &view, &ids); });
   if (options.antialias_edges) {
-    run([&](int k) { renderer.AntialiasPass(k, threads, ids, &view); });
+    RunOnThreads(threads, [&](int k) { renderer.AntialiasPass(k, threads, ids, &view); });
   }
   return view;
 }
