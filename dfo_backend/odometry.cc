@@ -1,5 +1,6 @@
 #include "dfo_backend/odometry.h"
 
+#include <algorithm>
 #include <chrono>
 #include <exception>
 #include <future>
@@ -249,8 +250,17 @@ void Odometry::SubmitToWindow(const TrackedFrame& t, KeyframeData* given) {
     // The frames until the next keyframe are tracked against it.
     if (kf.stereo.num_replaced > 0) frontend_->SetReferenceDepth(t.index, data.depth);
   }
+  if (tracking.source_scale == "run_median" && kf.window_scale > 0.0) {
+    window_scales_.push_back(kf.window_scale);
+    std::vector<double> sorted = window_scales_;
+    const auto middle = sorted.begin() + sorted.size() / 2;
+    std::nth_element(sorted.begin(), middle, sorted.end());
+    kf.source_scale = *middle;
+    data.initial_depth_scale = data.prior_depth_scale = kf.source_scale;
+    kf.initial_depth_scale = kf.source_scale;
+  }
   if (tracking.initial_depth_scale == "window" && kf.window_scale > 0.0) {
-    data.initial_depth_scale = kf.window_scale;  // the depth prior stays toward the source's
+    data.initial_depth_scale = kf.window_scale;  // the depth prior stays as source_scale says
     kf.initial_depth_scale = kf.window_scale;
   }
   pending->keyframe_depth = data.depth;

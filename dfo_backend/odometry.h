@@ -128,10 +128,12 @@ struct KeyframeRecord {
   int tracking_window_points = 0;  // window points inside the keyframe's image
   double tracking_covered = 0.0;   // fraction of the tracker's finest points on window depth
   // Median ratio of the window's depth to the source's over the window points seen from the
-  // keyframe's starting pose (0: no window yet or too few points), and the factor its points
-  // started at (TrackingDepthOptions::initial_depth_scale; 1 = the source's depth).
+  // keyframe's starting pose (0: no window yet or too few points), the factor its points
+  // started at (TrackingDepthOptions::initial_depth_scale; 1 = the source's depth), and the
+  // factor its depth prior is centred at (TrackingDepthOptions::source_scale; 1 = raw).
   double window_scale = 0.0;
   double initial_depth_scale = 1.0;
+  double source_scale = 1.0;
   // What the keyframe stereo (OdometryOptions::stereo) did to its depth; num_views 0 when it did
   // not run (off, no window scale yet, fewer than 2 earlier frames with a pose).
   KeyframeStereoResult stereo;
@@ -243,6 +245,8 @@ class Odometry {
     ImageF grey;
   };
   std::deque<RecentFrame> recent_;
+  // Every keyframe's window_scale > 0 so far (TrackingDepthOptions::source_scale "run_median").
+  std::vector<double> window_scales_;
 };
 
 }  // namespace dfo

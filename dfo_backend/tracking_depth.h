@@ -25,7 +25,7 @@
 namespace dfo {
 
 // YAML section "tracker" (keys depth, depth_fill, min_window_points) and
-// window.initial_depth_scale. Check() names the key.
+// window.initial_depth_scale, window.source_scale. Check() names the key.
 struct TrackingDepthOptions {
   // tracker.depth: "window" (after each window solve the newest keyframe is tracked against the
   // window's optimised points, filled as the file comment says) or "source" (the depth source's
@@ -47,6 +47,18 @@ struct TrackingDepthOptions {
   // 03 in 100-frame pieces, docs/tracking_against_the_window.md), "window" feeds the window's
   // own scale error back into every new keyframe: the scale grew up to 7.5x in 100 frames.
   std::string initial_depth_scale = "source";
+  // window.source_scale: the scale at which each new keyframe's depth map enters the window (its
+  // points' start, unless initial_depth_scale is "window", and its depth prior's centre): "raw",
+  // the depth source's own scale; "run_median", that map times the median, over every keyframe
+  // of the run so far, of the window-to-source ratio seen from the keyframe (the `window_scale`
+  // of KeyframeRecord). With "raw" the prior anchors the window at the source's scale while the
+  // window's geometry holds it elsewhere (the window's depth over a network's is 1.1-1.6 on
+  // KITTI), and the two pull against each other by as much as each stretch's geometry allows;
+  // "run_median" keeps the source's shape and its change of scale from image to image and
+  // anchors the window at the source's scale times one calibration factor, robust to single
+  // keyframes and fixed once the run is long. A factor over the recent keyframes only (the last
+  // 30 or 100) follows the window's own drift and lets it run away (docs/window.md).
+  std::string source_scale = "raw";
   // window.rescale_source_steps: a frame tracked against its keyframe's source depth (tracker.depth
   // "source", or a keyframe that fell back to it) gets, in the windowed trajectory, its
   // translation from the keyframe multiplied by the median ratio of the window's depth to that

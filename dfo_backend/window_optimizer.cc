@@ -275,6 +275,7 @@ struct WindowOptimizer::KeyframeState {
   FeatureLevel coarse;               // features at the BA level + 1 (coarse_iterations > 0)
   ImageF depth;                      // depth at the BA level (m, 0 invalid)
   double initial_depth_scale = 1.0;  // KeyframeData::initial_depth_scale
+  double prior_depth_scale = 1.0;    // KeyframeData::prior_depth_scale
   int num_selected = 0;              // points selected when it entered
   // s_k of WindowOptions::depth_prior_scale_fraction: its points' prior inverse depths are
   // prior_inverse_depth * exp(log_prior_scale) (0 when the fraction is 1).
@@ -450,7 +451,8 @@ double WindowOptimizer::SelectPoints(KeyframeState* kf) {
     p->host_id = kf->id;
     p->x = c.x;
     p->y = c.y;
-    p->prior_inverse_depth = std::max(1.0 / kf->depth(c.x, c.y), options_.min_inverse_depth);
+    p->prior_inverse_depth =
+        std::max(1.0 / (kf->depth(c.x, c.y) * kf->prior_depth_scale), options_.min_inverse_depth);
     p->inverse_depth =
         std::max(1.0 / (kf->depth(c.x, c.y) * kf->initial_depth_scale), options_.min_inverse_depth);
     p->patch = std::make_shared<const std::vector<double>>(
@@ -845,6 +847,10 @@ WindowResult WindowOptimizer::AddKeyframe(KeyframeData data) {
     input_error("initial_depth_scale = " + std::to_string(data.initial_depth_scale) +
                 " violates > 0 and finite");
   }
+  if (!(data.prior_depth_scale > 0.0) || !std::isfinite(data.prior_depth_scale)) {
+    input_error("prior_depth_scale = " + std::to_string(data.prior_depth_scale) +
+                " violates > 0 and finite");
+  }
   FeatureLevel& f = data.features.levels[level];
   const ImageF& d = data.depth.levels[level];
   if (d.width() != f.width || d.height() != f.height || d.channels() != 1) {
@@ -943,6 +949,7 @@ WindowResult WindowOptimizer::AddKeyframe(KeyframeData data) {
   }
   kf->depth = d;
   kf->initial_depth_scale = data.initial_depth_scale;
+  kf->prior_depth_scale = data.prior_depth_scale;
   KeyframeState* new_kf = kf.get();
   keyframes_.push_back(std::move(kf));
   const double depth_edge_fraction = SelectPoints(new_kf);

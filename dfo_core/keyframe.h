@@ -24,9 +24,11 @@ struct KeyframeData {
   FeaturePyramid features;  // z-scored feature maps as tracked (planar C x H x W per level)
   DepthPyramid depth;       // depth per level (m, 0 = invalid) from the frontend's depth source
   // The window starts the keyframe's points at depth * initial_depth_scale (e.g. the source's
-  // depth brought to the window's scale) while its depth prior stays toward `depth` itself (the
-  // depth source's own scale, which anchors the window's scale); > 0.
+  // depth brought to the window's scale) and pulls them, with its depth prior, toward depth *
+  // prior_depth_scale (1: the depth source's own scale, which then anchors the window's scale);
+  // both > 0.
   double initial_depth_scale = 1.0;
+  double prior_depth_scale = 1.0;
 };
 
 }  // namespace dfo

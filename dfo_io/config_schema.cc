@@ -395,6 +395,14 @@ ConfigSchema BuildSchema() {
               "ratio of the window's points seen from the keyframe to it (window; measured to feed "
               "the window's scale error back on real video)")
       .OneOf({"window", "source"});
+  s.AddString("window.source_scale", "raw",
+              "The scale at which each new keyframe's depth map enters the window (its points' "
+              "start and its depth prior's centre): the depth source's own (raw), or that times "
+              "the median over the run's keyframes so far of the window's depth over the "
+              "source's seen from the keyframe (run_median: the source gives the shape and its "
+              "change of scale from image to image, the window's scale is not pulled toward the "
+              "source's)")
+      .OneOf({"raw", "run_median"});
   s.AddBool("window.rescale_source_steps", true,
             "A frame tracked against its keyframe's source depth: its translation from the "
             "keyframe, in the windowed trajectory, times the window's depth over that depth "

@@ -85,6 +85,7 @@ TrackingDepthOptions TrackingDepthOptionsFromConfig(const io::Config& config) {
   o.min_window_points = config.GetInt("tracker.min_window_points");
   o.splat_radius_px = config.GetInt("tracker.splat_radius_px");
   o.initial_depth_scale = config.GetString("window.initial_depth_scale");
+  o.source_scale = config.GetString("window.source_scale");
   o.rescale_source_steps = config.GetBool("window.rescale_source_steps");
   o.Check();
   return o;

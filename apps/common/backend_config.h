@@ -43,7 +43,7 @@ WindowOptions WindowOptionsFromConfig(const io::Config& config);
 std::string ReferencePolicyFromConfig(const io::Config& config);
 
 // tracker.depth, tracker.depth_fill, tracker.min_window_points, tracker.splat_radius_px and
-// window.initial_depth_scale as TrackingDepthOptions, checked.
+// window.initial_depth_scale, window.source_scale as TrackingDepthOptions, checked.
 TrackingDepthOptions TrackingDepthOptionsFromConfig(const io::Config& config);
 
 // stereo.* as KeyframeStereoOptions, checked.

@@ -192,6 +192,7 @@ SequenceRunResult RunSequence(const FrameProvider& provider, Odometry* odometry,
         previous.keyframe_reason = kf.reason;
         if (odometry->has_window()) {
           previous.keyframe_depth_scale = kf.window_scale;
+          previous.keyframe_source_scale = kf.source_scale;
           previous.windowed_step_scale = kf.step_scale;
           if (kf.stereo.num_views > 0) previous.keyframe_stereo_fraction = kf.stereo.fraction;
         }
@@ -202,6 +203,7 @@ SequenceRunResult RunSequence(const FrameProvider& provider, Odometry* odometry,
         result.keyframes.push_back(kf);
         if (odometry->has_window()) {
           record.keyframe_depth_scale = kf.window_scale;
+          record.keyframe_source_scale = kf.source_scale;
           record.windowed_step_scale = kf.step_scale;
           if (kf.stereo.num_views > 0) record.keyframe_stereo_fraction = kf.stereo.fraction;
         }
@@ -489,7 +491,7 @@ std::string FramesCsvHeader() {
   return "index,timestamp_s,status,reference_index,new_reference,num_points,num_inliers,rmse,"
          "iterations,keyframe,keyframe_reason,load_ms,features_ms,depth_ms,tracking_ms,backend_ms,"
          "total_ms,tracking_depth,keyframe_depth_scale,lost_cause,windowed_step_scale,"
-         "keyframe_stereo_fraction\n";
+         "keyframe_stereo_fraction,keyframe_source_scale\n";
 }
 
 std::string FramesCsvLine(const FrameRecord& f) {
@@ -509,6 +511,7 @@ std::string FramesCsvLine(const FrameRecord& f) {
          LostCauseName(t.lost_cause) + "," +
          (f.windowed_step_scale > 0.0 ? Csv(f.windowed_step_scale, 6) : std::string()) + "," +
          (f.keyframe_stereo_fraction >= 0.0 ? Csv(f.keyframe_stereo_fraction, 4) : std::string()) +
+         "," + (f.keyframe_source_scale > 0.0 ? Csv(f.keyframe_source_scale, 6) : std::string()) +
          "\n";
 }
 

@@ -37,7 +37,9 @@
 //                         window.rescale_source_steps; empty when none),
 //                         keyframe_stereo_fraction (keyframes the keyframe stereo ran on,
 //                         stereo.views: the share of the finest level's pixels that took the
-//                         stereo depth; empty otherwise)
+//                         stereo depth; empty otherwise), keyframe_source_scale (keyframes
+//                         with a window: the factor their depth map entered it at,
+//                         window.source_scale; 1 = raw; empty otherwise)
 //   summary.json          see MakeRunSummary
 //   frontend_trajectory.png  top view of ground truth and Sim3-aligned estimate coloured by ATE
 //                         (only when at least 3 processed frames have ground truth and plot);
@@ -148,6 +150,9 @@ struct FrameRecord {
   // Keyframes whose depth the keyframe stereo changed (stereo.views): the share of the finest
   // level's pixels that took the stereo depth (KeyframeRecord::stereo); -1 when it did not run.
   double keyframe_stereo_fraction = -1.0;
+  // Keyframes with a window: the factor their depth map entered it at
+  // (KeyframeRecord::source_scale, window.source_scale); 0 otherwise.
+  double keyframe_source_scale = 0.0;
   // How the pose store holds the frame before it may become a keyframe: relative to keyframe
   // pose_keyframe_index with kf_from_cam (-1: kf_from_cam is the absolute pose; a frame that
   // became a keyframe by itself, e.g. a restart, keeps -1).

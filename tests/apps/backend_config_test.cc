@@ -38,6 +38,7 @@ TEST(BackendConfig, SchemaDefaultsEqualTrackingDepthOptionsDefaults) {
   EXPECT_EQ(t.min_window_points, d.min_window_points);
   EXPECT_EQ(t.splat_radius_px, d.splat_radius_px);
   EXPECT_EQ(t.initial_depth_scale, d.initial_depth_scale);
+  EXPECT_EQ(t.source_scale, d.source_scale);
   const OdometryOptions o = apps::OdometryOptionsFromConfig(config);
   EXPECT_EQ(o.mode, OdometryMode::kBoth);
   EXPECT_EQ(o.tracking.depth, "window");
@@ -53,6 +54,8 @@ TEST(BackendConfig, TrackingDepthKeysAreValidated) {
   EXPECT_THROW(load("tracker:\n  depth_fill: zeros\n"), ConfigError);
   EXPECT_THROW(load("tracker:\n  min_window_points: 0\n"), ConfigError);
   EXPECT_THROW(load("window:\n  initial_depth_scale: network\n"), ConfigError);
+  EXPECT_EQ(load("window:\n  source_scale: run_median\n").source_scale, "run_median");
+  EXPECT_THROW(load("window:\n  source_scale: median\n"), ConfigError);
   TrackingDepthOptions bad;
   bad.splat_radius_px = -1;
   EXPECT_THROW(bad.Check(), ConfigError);

@@ -505,9 +505,10 @@ TEST(DfoRunBadInput, DepthFullOfZerosIsLostNotACrash) {
             std::string::npos)
       << r.err;
   const std::string csv = ReadFile(out + "/frames.csv");
-  EXPECT_NE(csv.find(",lost_cause,windowed_step_scale,keyframe_stereo_fraction\n"),
-            std::string::npos);
-  EXPECT_NE(csv.find(",no_depth,,\n"), std::string::npos);
+  EXPECT_NE(
+      csv.find(",lost_cause,windowed_step_scale,keyframe_stereo_fraction,keyframe_source_scale\n"),
+      std::string::npos);
+  EXPECT_NE(csv.find(",no_depth,,,\n"), std::string::npos);
   // No frame tracked: no ATE, and the summary says why.
   EXPECT_TRUE(s["frontend"].IsNull());
   EXPECT_TRUE(s["windowed"].IsNull());

@@ -6,6 +6,7 @@
 
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
 #include <condition_variable>
 #include <cstdio>
@@ -516,6 +517,40 @@ TEST(Odometry, RescaledSourceStepsFollowTheWindowsScale) {
               frontend[1][i].world_from_cam.translation())
         << "frame " << i;
   }
+}
+
+// window.source_scale: with run_median each keyframe's depth map enters the window at the median
+// of the window-to-source ratios of the keyframes so far (itself included); with raw at 1.
+TEST(Odometry, RunMedianSourceScaleIsTheMedianOfTheWindowScalesSoFar) {
+  for (const std::string mode : {"raw", "run_median"}) {
+    OdometryOptions o = Deterministic(OdometryMode::kBoth);
+    o.tracking.depth = "source";
+    o.tracking.source_scale = mode;
+    Odometry odometry(External(), o, nullptr, std::make_unique<RandomScaleDepthSource>());
+    for (const Frame& f : Frames()) odometry.Process(f);
+    std::vector<double> scales;
+    int checked = 0;
+    for (const KeyframeRecord& kf : odometry.keyframes()) {
+      if (kf.window_scale > 0.0) scales.push_back(kf.window_scale);
+      double expected = 1.0;
+      if (mode == "run_median" && kf.window_scale > 0.0) {
+        std::vector<double> sorted = scales;
+        std::sort(sorted.begin(), sorted.end());
+        expected = sorted[sorted.size() / 2];
+        ++checked;
+      }
+      EXPECT_EQ(kf.source_scale, expected) << mode << ", keyframe " << kf.frame_index;
+      EXPECT_EQ(kf.initial_depth_scale, expected) << mode << ", keyframe " << kf.frame_index;
+    }
+    if (mode == "run_median") {
+      EXPECT_GE(checked, 5);
+      // The random per-image scales make the ratios differ: the median is not just the last one.
+      EXPECT_NE(odometry.keyframes().back().source_scale, odometry.keyframes().back().window_scale);
+    }
+  }
+  OdometryOptions bad = Deterministic(OdometryMode::kBoth);
+  bad.tracking.source_scale = "median";
+  EXPECT_THROW(Odometry(External(), bad), ConfigError);
 }
 
 // Tracking against the window with the steps rescaled (both defaults): the frames after a keyframe

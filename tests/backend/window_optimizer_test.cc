@@ -353,6 +353,46 @@ TEST(WindowOptimizerTest, DepthPriorScaleFractionLetsTheGeometrySetEachKeyframes
   EXPECT_LT(spread[1], 0.5 * spread[0]);
 }
 
+// KeyframeData::prior_depth_scale centres the depth prior: keyframes whose depth maps are all half
+// the truth, their points started at the map, with a strong prior. With the prior at the map the
+// points stay near half their true depth; with it at twice the map the window's depths (and its
+// scale) move to the truth.
+TEST(WindowOptimizerTest, PriorDepthScaleCentresTheDepthPrior) {
+  // Signed median log(depth / true depth) over the window's points.
+  const auto bias = [](const WindowOptimizer& window) {
+    std::vector<double> logs;
+    for (const WindowOptimizer::PointInfo& p : window.Points()) {
+      const SyntheticFrame truth = Sequence().RenderFrame(p.host_frame);
+      if (!(truth.depth(p.x, p.y) > 0.0f)) continue;
+      logs.push_back(std::log(1.0 / (p.inverse_depth * truth.depth(p.x, p.y))));
+    }
+    std::nth_element(logs.begin(), logs.begin() + logs.size() / 2, logs.end());
+    return logs[logs.size() / 2];
+  };
+  double result[2];
+  for (int run = 0; run < 2; ++run) {
+    WindowOptions options = DepthPriorWindowOptions(60, 10, 50.0);
+    options.coarse_iterations = 0;
+    WindowOptimizer window(options);
+    for (int frame : {0, 3, 6, 9}) {
+      KeyframeData kf = test::MakeSyntheticKeyframe(Sequence(), frame, 2);
+      for (ImageF& level : kf.depth.levels) {
+        for (float& d : level.vector()) d *= 0.5f;
+      }
+      kf.prior_depth_scale = run == 0 ? 1.0 : 2.0;
+      const WindowResult r = window.AddKeyframe(std::move(kf));
+      ASSERT_TRUE(frame == 0 || r.optimized) << r.message;
+    }
+    result[run] = bias(window);
+  }
+  std::printf(
+      "[ figures  ] depth maps at half the truth, points started there: median log(depth / "
+      "truth) %.3f with the prior at the map, %.3f with it at twice the map\n",
+      result[0], result[1]);
+  EXPECT_LT(result[0], std::log(0.6));
+  EXPECT_NEAR(result[1], 0.0, 0.1);
+}
+
 // Features with a blur fixed in pixels disagree where a patch is seen zoomed (forward motion),
 // and the window's optimum moves away from the truth; comparing the zoomed side's features
 // blurred by the zoom (window.zoom_blur_sigma_px) keeps a window started at the truth closer to
@@ -632,6 +672,9 @@ TEST(WindowOptimizerTest, BadKeyframesAreRejectedWithTheFrameIndex) {
   KeyframeData depth_size = test::MakeSyntheticKeyframe(Sequence(), 3, 2);
   depth_size.depth.levels[TestOptions().pyramid_level] = ImageF(5, 5);
   EXPECT_THROW(window.AddKeyframe(std::move(depth_size)), InputError);
+  KeyframeData prior_scale = test::MakeSyntheticKeyframe(Sequence(), 3, 2);
+  prior_scale.prior_depth_scale = 0.0;
+  EXPECT_THROW(window.AddKeyframe(std::move(prior_scale)), InputError);
   EXPECT_EQ(window.num_keyframes(), 1);
 }
 
