@@ -470,6 +470,41 @@ TEST(DfoRun, DemoKeepsItsMeasuredAccuracy) {
   EXPECT_GT(windowed, 0.5 * test::kDemoWindowedAte);
 }
 
+// configs/kitti.yaml on real video (../shared/data) keeps the figures the README states
+// (tests/support/measured_figures.h): KITTI 06 frames 0-50 and all 801 frames of KITTI 03.
+TEST(DfoRun, KittiConfigKeepsItsMeasuredAccuracyOnRealVideo) {
+  DFO_SKIP_WITHOUT_SHARED_DATA();
+  const std::string shared = test::SharedDataDir();
+  const std::string dir = test::MakeTempDir("dfo_run_kitti_figures");
+  const auto run = [&](const std::string& sequence, const std::string& extra) {
+    const std::string out = dir + "/" + sequence;
+    const CommandResult r =
+        RunCommand("cd " + test::SourceDir() + " && " + std::string(DFO_RUN_EXE),
+                   "--config configs/kitti.yaml --set dataset.path=" + shared +
+                       "/kitti --set dataset.sequence=" + sequence + extra +
+                       " --set frontend.depth=learned --set dataset.image_width=208"
+                       " --set dataset.image_height=64 --set run.progress=none --set "
+                       "run.plot=false --output " +
+                       out);
+    EXPECT_EQ(r.status, 0) << r.out << r.err;
+    return ReadSummary(out);
+  };
+  const io::JsonValue k06 = run("06", " --set dataset.last=50");
+  EXPECT_EQ(k06["frames_lost"].AsInt(), 0);
+  const double k06_ate = k06["windowed"]["ate_rmse"].AsNumber();
+  EXPECT_LE(k06_ate, test::kKitti06WindowedAteBound) << "measured " << test::kKitti06WindowedAte;
+  const io::JsonValue k03 = run("03", "");
+  EXPECT_EQ(k03["frames_lost"].AsInt(), 0);
+  const double k03_ate = k03["windowed"]["ate_rmse"].AsNumber();
+  const double k03_trel = k03["windowed"]["kitti_t_rel_pct"].AsNumber();
+  EXPECT_LE(k03_ate, test::kKitti03WindowedAteBound) << "measured " << test::kKitti03WindowedAte;
+  EXPECT_LE(k03_trel, test::kKitti03WindowedTRelPctBound)
+      << "measured " << test::kKitti03WindowedTRelPct;
+  // Much better than measured means the README's figures are stale: update them.
+  EXPECT_GT(k06_ate, 0.5 * test::kKitti06WindowedAte);
+  EXPECT_GT(k03_ate, 0.5 * test::kKitti03WindowedAte);
+}
+
 // A sequence without ground truth (a user's own video) still gives a picture of the path from
 // above and its length, in the estimate's own scale.
 TEST(DfoRun, WithoutGroundTruthDrawsThePathAndGivesItsLength) {

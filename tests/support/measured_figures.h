@@ -29,6 +29,23 @@ constexpr double kDemoFrontendAteBound = 0.25;
 constexpr double kDemoWindowedAte = 0.1304;
 constexpr double kDemoWindowedAteBound = 0.165;
 
+// configs/kitti.yaml on the real KITTI frames of ../shared/data with the command of issue 15
+// (windowed Sim3 ATE RMSE in metres, KITTI t_rel in %):
+//   build/apps/dfo_run --config configs/kitti.yaml --set dataset.path=../shared/data/kitti
+//     --set dataset.sequence=06 --set dataset.last=50 --set frontend.depth=learned
+//     --set dataset.image_width=208 --set dataset.image_height=64 --output OUT
+//   (and dataset.sequence=03 without dataset.last: all 801 frames)
+// Measured 0.176 m with 0 lost on KITTI 06 frames 0-50, 2.459 m and 2.06 % on KITTI 03, the same
+// with run.threads 1 and 2 and the backend thread. The bounds are the issue's targets; from start
+// frames 1-3 KITTI 03 gives 2.51 / 2.66 / 1.66 m (docs/window.md), so a change that costs more than
+// single runs scatter fails.
+constexpr double kKitti06WindowedAte = 0.176;
+constexpr double kKitti06WindowedAteBound = 0.30;
+constexpr double kKitti03WindowedAte = 2.459;
+constexpr double kKitti03WindowedAteBound = 3.0;
+constexpr double kKitti03WindowedTRelPct = 2.06;
+constexpr double kKitti03WindowedTRelPctBound = 3.0;
+
 }  // namespace dfo::test
 
 #endif  // DFO_TESTS_SUPPORT_MEASURED_FIGURES_H_
