@@ -16,21 +16,6 @@ bool IsFinitePose(const SE3d& pose) {
   return pose.translation().allFinite() && pose.quaternion().coeffs().allFinite();
 }
 
-// The frame's image as grey levels 0-255 for the keyframe stereo (the plane sweep's units): an
-// RGB image by the ITU-R BT.601 weights, as the tracker's hand-made features take it. The frontend
-// has checked the channel count (1 or 3) before a frame gets here.
-ImageF GreyOf(const ImageU8& image) {
-  ImageF grey(image.width(), image.height(), 1, 0.0f);
-  const bool rgb = image.channels() == 3;
-  for (int y = 0; y < image.height(); ++y) {
-    for (int x = 0; x < image.width(); ++x) {
-      grey(x, y) = rgb ? 0.299f * image(x, y, 0) + 0.587f * image(x, y, 1) + 0.114f * image(x, y, 2)
-                       : static_cast<float>(image(x, y, 0));
-    }
-  }
-  return grey;
-}
-
 }  // namespace
 
 // A keyframe's window solve, in flight on the backend thread (or about to run inline).
@@ -112,7 +97,7 @@ OdometryFrame Odometry::Process(const Frame& frame) {
   out.tracked = frontend_->Process(frame);  // throws on bad input: nothing booked
   if (window_ && options_.stereo.enabled()) {
     recent_.push_back(
-        {frame.index, out.tracked.status == TrackingStatus::kLost, GreyOf(frame.image)});
+        {frame.index, out.tracked.status == TrackingStatus::kLost, GreyLevels(frame.image, 1.0f)});
     while (static_cast<int>(recent_.size()) > options_.stereo.views + 1) recent_.pop_front();
   }
   const TrackedFrame& t = out.tracked;

@@ -80,6 +80,24 @@ using ImageU8 = Image<uint8_t>;
 using ImageU16 = Image<uint16_t>;
 using ImageF = Image<float>;
 
+// Grey levels of a 1- or 3-channel 8-bit image times `scale` (1: 0-255; 1 / 255: 0-1); an RGB
+// image by the ITU-R BT.601 weights, as the synthetic renderer's grey. The caller checks the
+// channel count.
+inline ImageF GreyLevels(const ImageU8& image, float scale) {
+  ImageF grey(image.width(), image.height(), 1);
+  const size_t n = static_cast<size_t>(image.width()) * image.height();
+  const uint8_t* src = image.data();
+  float* dst = grey.data();
+  if (image.channels() == 3) {
+    for (size_t i = 0; i < n; ++i) {
+      dst[i] = (0.299f * src[3 * i] + 0.587f * src[3 * i + 1] + 0.114f * src[3 * i + 2]) * scale;
+    }
+  } else {
+    for (size_t i = 0; i < n; ++i) dst[i] = src[i] * scale;
+  }
+  return grey;
+}
+
 // Largest over smallest value of a one-channel depth map in the (2 radius + 1)^2 square around
 // (x, y), which must lie inside the image; +infinity when a value there is not finite and
 // positive (a hole). 1 on a surface facing the camera; large at depth edges.

@@ -25,6 +25,7 @@ void RunOnThreads(int threads, const Work& work) {
     }
   };
   std::vector<std::thread> pool;
+  pool.reserve(threads > 1 ? threads - 1 : 0);  // no reallocation while threads run
   std::vector<int> not_started;
   for (int k = 1; k < threads; ++k) {
     try {

@@ -33,19 +33,7 @@ ImageF ToGray(const ImageU8& image, int frame_index) {
         << " channels; expected 1 (grey) or 3 (RGB)";
     throw InputError(msg.str());
   }
-  ImageF gray(image.width(), image.height(), 1);
-  const size_t n = static_cast<size_t>(image.width()) * image.height();
-  const uint8_t* src = image.data();
-  float* dst = gray.data();
-  if (image.channels() == 1) {
-    for (size_t i = 0; i < n; ++i) dst[i] = src[i] * (1.0f / 255.0f);
-  } else {
-    for (size_t i = 0; i < n; ++i) {
-      dst[i] = (0.299f * src[3 * i] + 0.587f * src[3 * i + 1] + 0.114f * src[3 * i + 2]) *
-               (1.0f / 255.0f);
-    }
-  }
-  return gray;
+  return GreyLevels(image, 1.0f / 255.0f);
 }
 
 // 3x3 box mean with clamped borders.
