@@ -302,6 +302,30 @@ int Run(const Args& args) {
                      "depth/, KITTI-layout depth_0/), or use the depth network: --set "
                      "frontend.depth=learned (or auto)");
   }
+  // dataset.processing_width: the frames at that width and their own aspect ratio, rounded so
+  // that every tracker level halves exactly; the depth network at the model's input size.
+  if (dataset.processing_width > 0) {
+    const int multiple = 1 << (frontend_options.tracker.num_levels - 1);
+    const auto [width, height] =
+        io::ProcessingSize(sequence.native_camera(), dataset.processing_width, multiple);
+    const std::string why =
+        "dataset.processing_width = " + std::to_string(dataset.processing_width) + " for " +
+        std::to_string(sequence.native_camera().width) + " x " +
+        std::to_string(sequence.native_camera().height) + " frames, aspect ratio kept, sides " +
+        "multiples of " + std::to_string(multiple) + " (2^(tracker.num_levels - 1))";
+    config.Set("dataset.image_width", static_cast<int64_t>(width), why);
+    config.Set("dataset.image_height", static_cast<int64_t>(height), why);
+    dataset.image_width = width;
+    dataset.image_height = height;
+    sequence = sequence.WithOutputSize(width, height);
+    if (apps::UsesLearnedSources(frontend_options)) {
+      const std::string at_model_size =
+          "dataset.processing_width: the depth network runs on a copy of each frame at the "
+          "model's input size (area-averaged when shrinking), its depth resized back (bilinear)";
+      config.Set("learned.require_input_size", false, at_model_size);
+      config.Set("learned.depth_at_model_size", true, at_model_size);
+    }
+  }
   // The learned sources: one model for both, loaded before anything is written.
   apps::FrontendSources sources =
       apps::MakeFrontendSources(frontend_options, apps::LearnedModelOptionsFromConfig(config));
@@ -320,17 +344,10 @@ int Run(const Args& args) {
     dataset.image_height = info.input_height;
     sequence = sequence.WithOutputSize(info.input_width, info.input_height);
   }
-  if (sources.model && sources.model->options().require_input_size) {
-    const LearnedModelInfo& info = sources.model->info();
-    if (sequence.output_width() != info.input_width ||
-        sequence.output_height() != info.input_height) {
-      throw ConfigError("dataset image size " + std::to_string(sequence.output_width()) + "x" +
-                        std::to_string(sequence.output_height()) + " differs from the input size " +
-                        std::to_string(info.input_width) + "x" + std::to_string(info.input_height) +
-                        " of the learned model " + info.path +
-                        "; set dataset.image_width/image_height to it, or "
-                        "learned.require_input_size = false");
-    }
+  // A size the model cannot take stops the run here, naming the keys, not at the first frame.
+  if (sources.model) {
+    sources.model->CheckFrameSize(sequence.output_width(), sequence.output_height(),
+                                  frontend_options.features == "learned");
   }
 
   const std::string output_dir = config.GetString("run.output_dir");

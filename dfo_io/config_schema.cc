@@ -33,6 +33,14 @@ ConfigSchema BuildSchema() {
   s.AddInt("dataset.image_height", 128, "Height of loaded images in pixels (intrinsics rescaled)")
       .GreaterThan(0)
       .Max(8192);
+  s.AddInt("dataset.processing_width", 0,
+           "Processing width in pixels: frames are loaded at this width rounded down to a "
+           "multiple of 2^(tracker.num_levels - 1) and at the height that keeps their aspect "
+           "ratio, rounded to the nearest multiple (replacing image_width/image_height; config_effective.yaml records the "
+           "size); the depth network then runs on a copy at the model's input size and its "
+           "depth is resized back (learned.depth_at_model_size); 0 = off")
+      .Min(0)
+      .Max(8192);
   s.AddBool("dataset.keep_native", false,
             "Load images at their native size and ignore image_width/image_height");
   s.AddBool("dataset.color", false, "Load RGB images (KITTI image_2 when present) instead of gray");
@@ -513,6 +521,7 @@ DatasetOptions DatasetOptionsFromConfig(const Config& config) {
   o.image_width = config.GetInt("dataset.image_width");
   o.image_height = config.GetInt("dataset.image_height");
   o.keep_native = config.GetBool("dataset.keep_native");
+  o.processing_width = config.GetInt("dataset.processing_width");
   o.color = config.GetBool("dataset.color");
   o.depth = config.GetBool("dataset.depth");
   o.tum_max_depth_diff = config.GetDouble("dataset.tum_max_depth_diff");

@@ -42,6 +42,13 @@ void DatasetOptions::Check() const {
   if (!keep_native && image_height <= 0) {
     fail("dataset.image_height = " + std::to_string(image_height) + " violates > 0");
   }
+  if (processing_width < 0) {
+    fail("dataset.processing_width = " + std::to_string(processing_width) + " violates >= 0");
+  }
+  if (processing_width > 0 && keep_native) {
+    fail("dataset.processing_width = " + std::to_string(processing_width) +
+         " and dataset.keep_native = true ask for two frame sizes: set one of them");
+  }
   const auto positive = [&](const char* name, double v) {
     if (!(v > 0) || !std::isfinite(v)) {
       std::ostringstream msg;
@@ -55,6 +62,22 @@ void DatasetOptions::Check() const {
   if (tum_gt_mode != "interpolate" && tum_gt_mode != "nearest") {
     fail("dataset.tum_gt_mode = '" + tum_gt_mode + "' violates one of interpolate|nearest");
   }
+}
+
+std::pair<int, int> ProcessingSize(const PinholeCamera& native, int width, int multiple) {
+  DFO_CHECK(multiple >= 1 && width > 0 && native.width > 0 && native.height > 0)
+      << "multiple " << multiple << ", width " << width << ", native " << native.width << " x "
+      << native.height;
+  const int w = std::max(multiple, width / multiple * multiple);
+  const double exact_height = static_cast<double>(native.height) * w / native.width;
+  const int h = std::max(multiple, static_cast<int>(std::lround(exact_height / multiple)) * multiple);
+  if (w > 8192 || h > 8192) {
+    throw ConfigError("dataset.processing_width = " + std::to_string(width) + " gives " +
+                      std::to_string(w) + " x " + std::to_string(h) + " for " +
+                      std::to_string(native.width) + " x " + std::to_string(native.height) +
+                      " frames, above 8192 pixels a side");
+  }
+  return {w, h};
 }
 
 Sequence Sequence::WithOutputSize(int width, int height) const {

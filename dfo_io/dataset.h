@@ -30,6 +30,7 @@
 #include <memory>
 #include <optional>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include "dfo_core/camera.h"
@@ -57,6 +58,10 @@ struct DatasetOptions {
   int image_width = 416;        // width of loaded images in pixels, > 0 (unless keep_native)
   int image_height = 128;       // height of loaded images in pixels, > 0 (unless keep_native)
   bool keep_native = false;     // true: load images at their native size, ignore width/height
+  // > 0: the processing width; the application replaces image_width/image_height with
+  // ProcessingSize(native camera, processing_width, its pyramid's multiple) once the recording
+  // is open (the native size is known only then). 0 = off; >= 0, not with keep_native.
+  int processing_width = 0;
   bool color = false;           // true: RGB images (KITTI image_2 when present); false: gray
   bool depth = false;           // true: load ground-truth depth maps with the images, if any
 
@@ -70,6 +75,14 @@ struct DatasetOptions {
   // violates >= 0").
   void Check() const;
 };
+
+// The frame size for a processing width: `width` rounded down to a multiple of `multiple` (at
+// least `multiple`), and the height that keeps the native aspect ratio at that width, rounded to
+// the nearest multiple (KITTI's 620 x 188 and 1226 x 370 frames at width 616 or 620, multiple 8:
+// 616 x 184).
+// `multiple` is 2^(levels - 1) for a pyramid whose levels must halve exactly; >= 1. Throws
+// ConfigError naming dataset.processing_width when the result exceeds 8192 pixels a side.
+std::pair<int, int> ProcessingSize(const PinholeCamera& native, int width, int multiple);
 
 // One frame of a sequence, as listed by the dataset (nothing loaded).
 struct FrameInfo {

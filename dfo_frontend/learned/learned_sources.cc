@@ -89,6 +89,9 @@ struct LearnedModel::Impl {
   void Run(const Frame& frame, bool want_features, bool want_depth);
   // The InputErrors of Run for the frame's image, without running anything.
   void CheckInput(const Frame& frame) const;
+  // InputError unless the frame's sides are divisible by 2^(levels - 1), which a network run on
+  // the frame itself needs.
+  void CheckDivisible(const Frame& frame) const;
   void StoreDepth(const Frame& frame, const std::vector<torch::Tensor>& depth_levels);
   void StoreFeatures(const Frame& frame, const std::vector<torch::Tensor>& feature_levels,
                      const std::vector<torch::Tensor>& logit_levels);
@@ -180,10 +183,18 @@ void LearnedModel::Impl::CheckInput(const Frame& frame) const {
                      " x " + std::to_string(o.input_height) +
                      " (resize the input, or set learned.require_input_size = false)");
   }
-  const int div = 1 << (o.num_levels - 1);
+  // With depth_at_model_size the depth network runs on a resized copy; the feature network (and
+  // a TorchScript module, which refuses depth_at_model_size) runs on the frame itself.
+  if (!options.depth_at_model_size) CheckDivisible(frame);
+}
+
+void LearnedModel::Impl::CheckDivisible(const Frame& frame) const {
+  const int div = 1 << (model.options.num_levels - 1);
+  const int width = frame.image.width(), height = frame.image.height();
   if (width % div != 0 || height % div != 0) {
     throw InputError(What(frame) + ": image is " + std::to_string(width) + " x " +
-                     std::to_string(height) + "; the model's " + std::to_string(o.num_levels) +
+                     std::to_string(height) + "; the model's " +
+                     std::to_string(model.options.num_levels) +
                      " levels need sides divisible by " + std::to_string(div));
   }
 }
@@ -259,6 +270,7 @@ void LearnedModel::Impl::Run(const Frame& frame, bool want_features, bool want_d
       stats.ran_depth_network = true;
     }
     if (need_features) {
+      CheckDivisible(frame);  // the feature network runs on the frame (CheckInput may not have)
       learned::FeatureNetOutput f = model.networks->feature->forward(input);
       StoreFeatures(frame, f.features, f.mask_logits);
       stats.ran_feature_network = true;
@@ -368,6 +380,31 @@ const LearnedModelInfo& LearnedModel::info() const { return impl_->info; }
 const LearnedModelOptions& LearnedModel::options() const { return impl_->options; }
 
 void LearnedModel::CheckInput(const Frame& frame) const { impl_->CheckInput(frame); }
+
+void LearnedModel::CheckFrameSize(int width, int height, bool features) const {
+  const LearnedModelOptions& options = impl_->options;
+  const learned::NetworkOptions& o = impl_->model.options;
+  const std::string size = std::to_string(width) + "x" + std::to_string(height);
+  if (options.require_input_size && (width != o.input_width || height != o.input_height)) {
+    throw ConfigError("dataset image size " + size + " differs from the input size " +
+                      std::to_string(o.input_width) + "x" + std::to_string(o.input_height) +
+                      " of the learned model " + options.model_path +
+                      "; set dataset.image_width/image_height to it, or "
+                      "learned.require_input_size = false");
+  }
+  const int div = 1 << (o.num_levels - 1);
+  const bool on_frame = features || !options.depth_at_model_size;
+  if (on_frame && (width % div != 0 || height % div != 0)) {
+    throw ConfigError(
+        "dataset image size " + size + ": the " + std::to_string(o.num_levels) + " levels of the learned " +
+        "model " + options.model_path + " need sides divisible by " + std::to_string(div) +
+        " where a network runs on the frame itself (" +
+        (features ? std::string("frontend.features = learned")
+                  : std::string("learned.depth_at_model_size = false")) +
+        "); set dataset.processing_width (it rounds to that) or dataset.image_width / "
+        "image_height to multiples of " + std::to_string(div));
+  }
+}
 
 const FeaturePyramid& LearnedModel::Features(const Frame& frame) {
   impl_->Run(frame, /*want_features=*/true, /*want_depth=*/false);

@@ -131,6 +131,12 @@ class LearnedModel {
   // Throws the InputError that Features and Depth would throw for the frame's image (see
   // above; TorchScript output shapes aside), without running a network.
   void CheckInput(const Frame& frame) const;
+  // For start-up, before any frame: throws ConfigError naming the keys when frames of width x
+  // height cannot be given to the model: another size than its input size with
+  // require_input_size, or sides not divisible by 2^(levels - 1) where a network runs on the
+  // frame itself (the feature network when `features`, the depth network unless
+  // depth_at_model_size).
+  void CheckFrameSize(int width, int height, bool features) const;
 
   // Figures of the last frame the networks ran on (not updated by cache hits).
   const LearnedFrameStats& last_stats() const;

@@ -138,6 +138,40 @@ TEST_F(DfoRunLearned, InputSizeMismatch) {
   EXPECT_EQ(CountLines(out + "/frontend_kitti.txt"), static_cast<size_t>(kFrames));
 }
 
+// A size no tracker level and no network can take (130 x 64: sides not divisible by 8) stops the
+// run at start-up, naming the keys, not at the first frame; dataset.processing_width keeps the
+// frames' aspect ratio, rounds to the pyramid's multiple and runs the depth network at the
+// model's own size, and config_effective.yaml says so.
+TEST_F(DfoRunLearned, ProcessingWidthKeepsTheAspectRatioAndOddSizesStopAtStartUp) {
+  const std::string out = test::MakeTempDir("dfo_run_learned_processing");
+  const std::string sets = "--set frontend.depth=learned --set run.mode=frontend";
+  const CommandResult odd = Run("no_depth", out,
+                                sets + " --set dataset.image_width=130 --set "
+                                       "learned.require_input_size=false");
+  ExpectOneLineError(odd, {"130x64", "divisible by 8", "dataset.processing_width",
+                           "learned.depth_at_model_size = false"});
+  EXPECT_FALSE(fs::exists(out + "/frames.csv"));
+  // With the depth network at the model's size the frame itself needs no multiple of 8.
+  const CommandResult at_model = Run("no_depth", out,
+                                     sets + " --set dataset.image_width=130 --set "
+                                            "learned.require_input_size=false --set "
+                                            "learned.depth_at_model_size=true");
+  ASSERT_EQ(at_model.status, 0) << at_model.err;
+  EXPECT_EQ(CountLines(out + "/frontend_kitti.txt"), static_cast<size_t>(kFrames));
+  // 128 x 64 frames at width 200: the height 100 rounds to the multiple of 8 above it (half-way
+  // cases round away from zero), 200 x 104.
+  const CommandResult processed =
+      Run("no_depth", out, sets + " --set dataset.processing_width=200");
+  ASSERT_EQ(processed.status, 0) << processed.err;
+  const std::string effective = test::ReadFile(out + "/config_effective.yaml");
+  EXPECT_NE(effective.find("image_width: 200"), std::string::npos) << effective;
+  EXPECT_NE(effective.find("image_height: 104"), std::string::npos) << effective;
+  EXPECT_NE(effective.find("depth_at_model_size: true"), std::string::npos) << effective;
+  EXPECT_NE(effective.find("# from dataset.processing_width = 200"), std::string::npos)
+      << effective;
+  EXPECT_EQ(CountLines(out + "/frontend_kitti.txt"), static_cast<size_t>(kFrames));
+}
+
 // The model file is read only when a source is learned: the classic sources run without one.
 TEST_F(DfoRunLearned, ClassicSourcesNeverReadTheModel) {
   const std::string out = test::MakeTempDir("dfo_run_learned_classic");

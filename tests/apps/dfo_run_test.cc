@@ -39,16 +39,10 @@ namespace fs = std::filesystem;
 constexpr int kFrames = 10;
 
 using test::CommandResult;
+using test::ReadFile;
 using test::RunCommand;
 
 CommandResult RunDfoRun(const std::string& args) { return RunCommand(DFO_RUN_EXE, args); }
-
-std::string ReadFile(const std::string& path) {
-  std::ifstream file(path, std::ios::binary);
-  std::stringstream ss;
-  ss << file.rdbuf();
-  return ss.str();
-}
 
 size_t CountLines(const std::string& text) {
   size_t n = 0;

@@ -29,17 +29,11 @@ namespace {
 
 namespace fs = std::filesystem;
 using test::CommandResult;
+using test::ReadFile;
 using test::RunCommand;
 
 constexpr int kFrames = 12;
 constexpr long kMaxChildRssKb = 1024 * 1024;  // 1 GB, the bound for any hostile input
-
-std::string ReadFile(const std::string& path) {
-  std::ifstream file(path, std::ios::binary);
-  std::stringstream ss;
-  ss << file.rdbuf();
-  return ss.str();
-}
 
 void WriteFile(const std::string& path, const std::string& bytes) {
   std::ofstream file(path, std::ios::binary | std::ios::trunc);

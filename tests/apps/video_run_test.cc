@@ -23,14 +23,8 @@ namespace {
 
 namespace fs = std::filesystem;
 using test::CommandResult;
+using test::ReadFile;
 using test::RunCommand;
-
-std::string ReadFile(const std::string& path) {
-  std::ifstream file(path, std::ios::binary);
-  std::stringstream ss;
-  ss << file.rdbuf();
-  return ss.str();
-}
 
 // The grey PNGs of `image_dir` (sorted) as a video; false when FFmpeg cannot write the codec.
 bool WriteVideo(const std::vector<std::string>& pngs, const std::string& path, const char* fourcc) {

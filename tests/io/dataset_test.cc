@@ -697,3 +697,55 @@ TEST(ResizeDepth, NeverAveragesAndKeepsValidity) {
 
 }  // namespace
 }  // namespace dfo::io
+
+namespace dfo::io {
+namespace {
+
+// dataset.processing_width: the width rounded down to the pyramid's multiple, the height that
+// keeps the native aspect ratio rounded to the nearest one (DSO's 616 x 184 for both KITTI frame sizes here).
+TEST(ProcessingSize, KeepsTheAspectRatioAtMultiplesOfThePyramid) {
+  PinholeCamera half_kitti;
+  half_kitti.width = 620;
+  half_kitti.height = 188;
+  EXPECT_EQ(ProcessingSize(half_kitti, 616, 8), std::make_pair(616, 184));
+  EXPECT_EQ(ProcessingSize(half_kitti, 620, 8), std::make_pair(616, 184));  // 620 -> 616
+  PinholeCamera full_kitti;
+  full_kitti.width = 1226;
+  full_kitti.height = 370;
+  EXPECT_EQ(ProcessingSize(full_kitti, 616, 8), std::make_pair(616, 184));
+  PinholeCamera vga;
+  vga.width = 640;
+  vga.height = 480;
+  EXPECT_EQ(ProcessingSize(vga, 640, 8), std::make_pair(640, 480));   // 4:3 is not squashed
+  EXPECT_EQ(ProcessingSize(vga, 600, 16), std::make_pair(592, 448));  // 444 -> 448
+  EXPECT_EQ(ProcessingSize(vga, 3, 8), std::make_pair(8, 8));         // at least one multiple
+  try {
+    PinholeCamera tall;
+    tall.width = 100;
+    tall.height = 1000;
+    ProcessingSize(tall, 1000, 8);  // 1000 x 10000
+    ADD_FAILURE() << "no error";
+  } catch (const ConfigError& e) {
+    EXPECT_NE(std::string(e.what()).find("dataset.processing_width = 1000"), std::string::npos)
+        << e.what();
+  }
+}
+
+TEST(ProcessingSize, OptionsRefuseNegativeWidthsAndKeepNative) {
+  DatasetOptions o;
+  o.path = "/data";
+  o.processing_width = -1;
+  EXPECT_THROW(o.Check(), ConfigError);
+  o.processing_width = 616;
+  o.Check();
+  o.keep_native = true;
+  try {
+    o.Check();
+    ADD_FAILURE() << "no error";
+  } catch (const ConfigError& e) {
+    EXPECT_NE(std::string(e.what()).find("dataset.keep_native"), std::string::npos) << e.what();
+  }
+}
+
+}  // namespace
+}  // namespace dfo::io

@@ -36,6 +36,13 @@ std::string MakeTempDir(const std::string& tag) {
 
 std::string SourceDir() { return DFO_SOURCE_DIR; }
 
+std::string ReadFile(const std::string& path) {
+  std::ifstream file(path, std::ios::binary);
+  std::stringstream ss;
+  ss << file.rdbuf();
+  return ss.str();
+}
+
 CommandResult RunCommand(const std::string& exe, const std::string& args) {
   static std::atomic<int> counter{0};
   const std::string err_path =

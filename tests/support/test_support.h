@@ -25,6 +25,9 @@ struct CommandResult {
   std::string err;  // standard error
 };
 
+// The whole file's bytes ("" when it cannot be read).
+std::string ReadFile(const std::string& path);
+
 // Runs `exe args` through the shell with standard input from /dev/null, capturing stdout and
 // stderr separately (stderr through a temporary file).
 CommandResult RunCommand(const std::string& exe, const std::string& args);
