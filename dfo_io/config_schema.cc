@@ -36,9 +36,10 @@ ConfigSchema BuildSchema() {
   s.AddInt("dataset.processing_width", 0,
            "Processing width in pixels: frames are loaded at this width rounded down to a "
            "multiple of 2^(tracker.num_levels - 1) and at the height that keeps their aspect "
-           "ratio, rounded to the nearest multiple (replacing image_width/image_height; config_effective.yaml records the "
-           "size); the depth network then runs on a copy at the model's input size and its "
-           "depth is resized back (learned.depth_at_model_size); 0 = off")
+           "ratio, rounded to the nearest multiple (replacing image_width/image_height; "
+           "config_effective.yaml records the size); the depth network then runs on a copy at "
+           "the model's input size and its depth is resized back (learned.depth_at_model_size); "
+           "0 = off")
       .Min(0)
       .Max(8192);
   s.AddBool("dataset.keep_native", false,

@@ -70,7 +70,8 @@ std::pair<int, int> ProcessingSize(const PinholeCamera& native, int width, int m
       << native.height;
   const int w = std::max(multiple, width / multiple * multiple);
   const double exact_height = static_cast<double>(native.height) * w / native.width;
-  const int h = std::max(multiple, static_cast<int>(std::lround(exact_height / multiple)) * multiple);
+  const int h =
+      std::max(multiple, static_cast<int>(std::lround(exact_height / multiple)) * multiple);
   if (w > 8192 || h > 8192) {
     throw ConfigError("dataset.processing_width = " + std::to_string(width) + " gives " +
                       std::to_string(w) + " x " + std::to_string(h) + " for " +

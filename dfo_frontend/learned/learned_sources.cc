@@ -396,9 +396,9 @@ void LearnedModel::CheckFrameSize(int width, int height, bool features) const {
   const bool on_frame = features || !options.depth_at_model_size;
   if (on_frame && (width % div != 0 || height % div != 0)) {
     throw ConfigError(
-        "dataset image size " + size + ": the " + std::to_string(o.num_levels) + " levels of the learned " +
-        "model " + options.model_path + " need sides divisible by " + std::to_string(div) +
-        " where a network runs on the frame itself (" +
+        "dataset image size " + size + ": the " + std::to_string(o.num_levels) +
+        " levels of the learned model " + options.model_path + " need sides divisible by " +
+        std::to_string(div) + " where a network runs on the frame itself (" +
         (features ? std::string("frontend.features = learned")
                   : std::string("learned.depth_at_model_size = false")) +
         "); set dataset.processing_width (it rounds to that) or dataset.image_width / "

@@ -702,7 +702,8 @@ namespace dfo::io {
 namespace {
 
 // dataset.processing_width: the width rounded down to the pyramid's multiple, the height that
-// keeps the native aspect ratio rounded to the nearest one (DSO's 616 x 184 for both KITTI frame sizes here).
+// keeps the native aspect ratio rounded to the nearest one (DSO's 616 x 184 for both KITTI frame
+// sizes here).
 TEST(ProcessingSize, KeepsTheAspectRatioAtMultiplesOfThePyramid) {
   PinholeCamera half_kitti;
   half_kitti.width = 620;
