@@ -384,6 +384,13 @@ int RunTraj(int argc, char** argv) {
     std::cout << "scale drift   not computed: fewer than two " << Fixed(drift.segment_length_m, 0)
               << " m stretches of ground-truth path\n";
   }
+  const ScaleDriftResult& steps = evaluation.step_scale;
+  if (steps.ratios.size() >= 2) {
+    std::cout << "step scale    log std " << Fixed(steps.log_std, 4) << "  min "
+              << Fixed(steps.min, 3) << "  max " << Fixed(steps.max, 3) << "  ("
+              << steps.ratios.size() << " stretches of " << steps.segment_frames
+              << " frames: estimated / true path length after the alignment)\n";
+  }
   if (opt.Has("--plot")) std::cout << "plot:         " << opt.Get("--plot", "") << "\n";
   return 0;
 }

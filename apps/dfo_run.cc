@@ -234,6 +234,11 @@ void PrintComparison(const apps::SequenceRunResult& result, const apps::RunOutpu
         "scale drift (log std, 50 m)",
         [](const apps::RunEvaluation& e) { return e.sim3.scale_drift.log_std; }, 3);
   }
+  if (columns.front().evaluation->sim3.step_scale.ratios.size() >= 2) {
+    row(
+        "step scale (log std, 20 frames)",
+        [](const apps::RunEvaluation& e) { return e.sim3.step_scale.log_std; }, 3);
+  }
   std::fflush(stdout);
 }
 

@@ -384,6 +384,31 @@ SnippetAteResult ComputeSnippetAte(const Trajectory& ground_truth, const Traject
 
 constexpr int kScaleDriftChords = 5;
 
+namespace {
+
+// min, max and log_std of result->ratios (see ScaleDriftResult).
+void SummarizeScaleRatios(ScaleDriftResult* result) {
+  const std::vector<double>& ratios = result->ratios;
+  if (ratios.empty()) {
+    result->log_std = result->min = result->max = kNaN;
+    return;
+  }
+  result->min = *std::min_element(ratios.begin(), ratios.end());
+  result->max = *std::max_element(ratios.begin(), ratios.end());
+  if (ratios.size() < 2 || !(result->min > 0.0)) {
+    result->log_std = kNaN;
+    return;
+  }
+  double mean = 0.0;
+  for (double r : ratios) mean += std::log(r);
+  mean /= static_cast<double>(ratios.size());
+  double sq = 0.0;
+  for (double r : ratios) sq += (std::log(r) - mean) * (std::log(r) - mean);
+  result->log_std = std::sqrt(sq / static_cast<double>(ratios.size()));
+}
+
+}  // namespace
+
 ScaleDriftResult ComputeScaleDrift(const Trajectory& ground_truth, const Trajectory& estimate,
                                    double segment_length_m) {
   CheckSameSize(ground_truth, estimate, "scale drift");
@@ -391,7 +416,6 @@ ScaleDriftResult ComputeScaleDrift(const Trajectory& ground_truth, const Traject
     throw InputError("scale drift: the stretch length must be > 0 m, got " +
                      std::to_string(segment_length_m));
   }
-  constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
   ScaleDriftResult result;
   result.segment_length_m = segment_length_m;
   // Lengths along chords between poses a fifth of a stretch apart, not frame to frame: per-frame
@@ -418,22 +442,36 @@ ScaleDriftResult ComputeScaleDrift(const Trajectory& ground_truth, const Traject
       first = i;
     }
   }
-  if (result.ratios.empty()) {
-    result.log_std = result.min = result.max = kNaN;
-    return result;
+  SummarizeScaleRatios(&result);
+  return result;
+}
+
+ScaleDriftResult ComputeStepScale(const Trajectory& ground_truth, const Trajectory& estimate,
+                                  int segment_frames) {
+  CheckSameSize(ground_truth, estimate, "step scale");
+  if (segment_frames < 1) {
+    throw InputError("step scale: the stretch must be >= 1 frame, got " +
+                     std::to_string(segment_frames));
   }
-  result.min = *std::min_element(result.ratios.begin(), result.ratios.end());
-  result.max = *std::max_element(result.ratios.begin(), result.ratios.end());
-  if (result.ratios.size() < 2 || !(result.min > 0.0)) {
-    result.log_std = kNaN;
-    return result;
+  ScaleDriftResult result;
+  result.segment_frames = segment_frames;
+  const size_t frames = static_cast<size_t>(segment_frames);
+  const size_t chord = std::max<size_t>(1, frames / kScaleDriftChords);
+  const auto position = [](const Trajectory& t, size_t i) {
+    return t[i].world_from_cam.translation();
+  };
+  for (size_t first = 0; first + frames < ground_truth.size(); first += frames) {
+    double gt_length = 0.0, est_length = 0.0;
+    for (size_t a = first; a < first + frames; a += chord) {
+      const size_t b = std::min(a + chord, first + frames);
+      gt_length += RobustNorm(position(ground_truth, b) - position(ground_truth, a));
+      est_length += RobustNorm(position(estimate, b) - position(estimate, a));
+    }
+    if (!(gt_length > 0.0)) continue;
+    result.ratios.push_back(est_length / gt_length);
+    result.first_index.push_back(first);
   }
-  double mean = 0.0;
-  for (double r : result.ratios) mean += std::log(r);
-  mean /= static_cast<double>(result.ratios.size());
-  double sq = 0.0;
-  for (double r : result.ratios) sq += (std::log(r) - mean) * (std::log(r) - mean);
-  result.log_std = std::sqrt(sq / static_cast<double>(result.ratios.size()));
+  SummarizeScaleRatios(&result);
   return result;
 }
 

@@ -160,7 +160,8 @@ SnippetAteResult ComputeSnippetAte(const Trajectory& ground_truth, const Traject
 // deviation of their logarithms (0 = no drift), NaN with fewer than 2 stretches, as min and max
 // with none.
 struct ScaleDriftResult {
-  double segment_length_m = 0.0;
+  double segment_length_m = 0.0;  // ComputeScaleDrift's stretches (0 for ComputeStepScale's)
+  int segment_frames = 0;         // ComputeStepScale's stretches (0 for ComputeScaleDrift's)
   std::vector<double> ratios;       // one per stretch
   std::vector<size_t> first_index;  // the pose each stretch starts at
   double log_std = 0.0;
@@ -171,6 +172,14 @@ struct ScaleDriftResult {
 // Throws InputError when the trajectories differ in size or segment_length_m is not > 0.
 ScaleDriftResult ComputeScaleDrift(const Trajectory& ground_truth, const Trajectory& estimate,
                                    double segment_length_m = 50.0);
+
+// The same ratios on consecutive stretches of `segment_frames` poses (the last, shorter one left
+// out) instead of metres, for runs too short for 50 m stretches: the estimate's path length over
+// the ground truth's along chords between every (segment_frames / 5)-th pose (at least every
+// pose). A stretch whose ground truth does not move is left out (its ratio has no meaning).
+// Throws InputError when the trajectories differ in size or segment_frames is not >= 1.
+ScaleDriftResult ComputeStepScale(const Trajectory& ground_truth, const Trajectory& estimate,
+                                  int segment_frames = 20);
 
 }  // namespace dfo
 

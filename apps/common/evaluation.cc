@@ -42,6 +42,7 @@ TrajectoryEvaluation EvaluateTrajectory(const Trajectory& ground_truth, const Tr
   e.kitti = ComputeKittiOdometryErrors(ground_truth, aligned);
   e.snippet = ComputeSnippetAte(ground_truth, aligned);
   e.scale_drift = ComputeScaleDrift(ground_truth, aligned);
+  e.step_scale = ComputeStepScale(ground_truth, aligned);
   e.gt_path_length_m = ground_truth.PathLength();
   return e;
 }
@@ -77,9 +78,17 @@ io::JsonValue EvaluationToJson(const TrajectoryEvaluation& e) {
   out.Set("scale_drift_log_std", e.scale_drift.log_std);
   out.Set("scale_drift_min", e.scale_drift.min);
   out.Set("scale_drift_max", e.scale_drift.max);
-  io::JsonValue ratios = io::JsonValue::Array();
-  for (double r : e.scale_drift.ratios) ratios.Push(io::JsonValue(r));
-  out.Set("scale_drift_ratios", std::move(ratios));
+  const auto array = [](const std::vector<double>& values) {
+    io::JsonValue a = io::JsonValue::Array();
+    for (double v : values) a.Push(io::JsonValue(v));
+    return a;
+  };
+  out.Set("scale_drift_ratios", array(e.scale_drift.ratios));
+  out.Set("step_scale_frames", static_cast<int64_t>(e.step_scale.segment_frames));
+  out.Set("step_scale_log_std", e.step_scale.log_std);
+  out.Set("step_scale_min", e.step_scale.min);
+  out.Set("step_scale_max", e.step_scale.max);
+  out.Set("step_scale_ratios", array(e.step_scale.ratios));
   return out;
 }
 

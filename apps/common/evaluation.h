@@ -9,7 +9,9 @@
 //   ate_rmse, ate_mean, ate_median, ate_std, ate_min, ate_max,
 //   rpe_delta, rpe_delta_unit, rpe_num_pairs, rpe_trans_rmse, rpe_trans_mean, rpe_rot_rmse_deg,
 //   rpe_rot_mean_deg, kitti_num_segments, kitti_t_rel_pct, kitti_r_rel_deg_per_100m,
-//   snippet_num, snippet_ate_mean, snippet_ate_std
+//   snippet_num, snippet_ate_mean, snippet_ate_std, scale_drift_segment_m, scale_drift_log_std,
+//   scale_drift_min, scale_drift_max, scale_drift_ratios (50 m stretches), step_scale_frames,
+//   step_scale_log_std, step_scale_min, step_scale_max, step_scale_ratios (20-frame stretches)
 #ifndef DFO_APPS_COMMON_EVALUATION_H_
 #define DFO_APPS_COMMON_EVALUATION_H_
 
@@ -45,6 +47,7 @@ struct TrajectoryEvaluation {
   KittiOdometryResult kitti;
   SnippetAteResult snippet;
   ScaleDriftResult scale_drift;   // 50 m stretches
+  ScaleDriftResult step_scale;    // 20-frame stretches (ComputeStepScale)
   double gt_path_length_m = 0.0;  // length of the ground-truth path (world units)
 };
 

@@ -20,6 +20,7 @@
 #include "apps/common/run_stats.h"
 #include "dfo_core/error.h"
 #include "dfo_core/timing.h"
+#include "dfo_io/curve_plot.h"
 #include "dfo_io/file_writer.h"
 #include "dfo_io/plot.h"
 #include "dfo_io/trajectory_io.h"
@@ -477,7 +478,7 @@ std::vector<std::string> RemoveRunOutputs(const std::string& output_dir) {
   for (const char* name :
        {"frontend_kitti.txt", "frontend_tum.txt", "windowed_kitti.txt", "windowed_tum.txt",
         "keyframes_tum.txt", "frames.csv", "summary.json", "frontend_trajectory.png",
-        "windowed_trajectory.png", "comparison_trajectory.png"}) {
+        "windowed_trajectory.png", "comparison_trajectory.png", "scale_along_the_run.png"}) {
     for (const std::string& file : {std::string(name), std::string(name) + ".tmp"}) {
       std::error_code ec;
       const fs::path p = fs::path(output_dir) / file;
@@ -655,6 +656,35 @@ RunOutputs WriteRunOutputs(const SequenceRunResult& result, const std::string& o
            {"windowed (Sim3-aligned)", out.windowed_evaluation.sim3.alignment.aligned_estimate}},
           options);
       out.plot_path = p;
+    });
+  }
+  // The scale along the run: each estimate's step length over the truth's per 20-frame stretch.
+  std::vector<io::CurveSeries> scale_curves;
+  const auto add_scale = [&](const RunEvaluation& ev, const char* label) {
+    const ScaleDriftResult& steps = ev.sim3.step_scale;
+    if (steps.ratios.empty()) return;
+    io::CurveSeries c;
+    c.name = std::string(label) + " (log std " + FormatFixed(steps.log_std, 3) + ")";
+    for (size_t i = 0; i < steps.ratios.size(); ++i) {
+      c.x.push_back(static_cast<double>(steps.first_index[i]));
+      c.y.push_back(steps.ratios[i]);
+    }
+    scale_curves.push_back(std::move(c));
+  };
+  if (plot && result.has_frontend() && out.evaluation.available) {
+    add_scale(out.evaluation, "frontend-only");
+  }
+  if (plot && result.has_windowed() && out.windowed_evaluation.available) {
+    add_scale(out.windowed_evaluation, "windowed");
+  }
+  if (!scale_curves.empty()) {
+    const std::string p = path("scale_along_the_run.png");
+    write(p, [&] {
+      io::CurvePlotOptions options;
+      options.title = "dfo_run: " + result.sequence_name + ", scale per 20 frames (Sim3-aligned)";
+      options.x_label = "first pose of the stretch";
+      options.y_label = "estimated / true step length";
+      io::WriteCurvePlot(p, scale_curves, options);
     });
   }
   // Without ground truth: the estimated path(s) from above, in the estimate's own frame and scale,

@@ -44,7 +44,9 @@
 //   frontend_trajectory.png  top view of ground truth and Sim3-aligned estimate coloured by ATE
 //                         (only when at least 3 processed frames have ground truth and plot);
 //                         windowed_trajectory.png the same for the windowed estimate, and
-//                         comparison_trajectory.png both over the ground truth (mode both)
+//                         comparison_trajectory.png both over the ground truth (mode both);
+//                         scale_along_the_run.png each estimate's step length over the
+//                         truth's per 20-frame stretch (summary.json step_scale_ratios)
 #ifndef DFO_APPS_COMMON_SEQUENCE_RUNNER_H_
 #define DFO_APPS_COMMON_SEQUENCE_RUNNER_H_
 

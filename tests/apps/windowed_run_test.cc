@@ -122,7 +122,8 @@ TEST(WindowedRun, BothTrajectoriesFromOneFrontendPass) {
   const apps::RunOutputs o = apps::WriteRunOutputs(r, out, /*plot=*/true);
   for (const char* name :
        {"frontend_kitti.txt", "frontend_tum.txt", "windowed_kitti.txt", "windowed_tum.txt",
-        "keyframes_tum.txt", "frames.csv", "summary.json", "comparison_trajectory.png"}) {
+        "keyframes_tum.txt", "frames.csv", "summary.json", "comparison_trajectory.png",
+        "scale_along_the_run.png"}) {
     EXPECT_FALSE(ReadFile(out + "/" + name).empty()) << name;
   }
   const io::JsonValue& s = o.summary;

@@ -356,6 +356,42 @@ TEST(ScaleDrift, FrameToFrameJitterIsNotScale) {
   for (double r : drift.ratios) EXPECT_NEAR(r, 1.0, 1e-3);
 }
 
+// Per 20-frame stretches, for runs too short for 50 m ones: the second half of a 101-pose run 1.2
+// times too long gives 1, 1, then 1.2 twice (the stretch from frame 40 straddles the change at
+// frame 50: half at each), the last 20 frames (a stretch from frame 100 would need pose 120) left
+// out; a stretch whose ground truth stands still has no ratio.
+TEST(StepScale, RatiosPerFrameStretchFollowTheStepLength) {
+  const Trajectory gt = StraightLine(101, 0.2);
+  const ScaleDriftResult same = ComputeStepScale(gt, gt);
+  EXPECT_EQ(same.segment_frames, 20);
+  ASSERT_EQ(same.ratios.size(), 5u);
+  for (double r : same.ratios) EXPECT_NEAR(r, 1.0, 1e-9);
+  const ScaleDriftResult half = ComputeStepScale(gt, StepScaledFrom(gt, 50, 1.2));
+  ASSERT_EQ(half.ratios.size(), 5u);
+  EXPECT_NEAR(half.ratios[0], 1.0, 1e-9);
+  EXPECT_NEAR(half.ratios[1], 1.0, 1e-9);
+  EXPECT_NEAR(half.ratios[2], 1.1, 1e-9);
+  EXPECT_NEAR(half.ratios[3], 1.2, 1e-9);
+  EXPECT_NEAR(half.ratios[4], 1.2, 1e-9);
+  EXPECT_EQ(half.first_index[3], 60u);
+  EXPECT_NEAR(half.min, 1.0, 1e-9);
+  EXPECT_NEAR(half.max, 1.2, 1e-9);
+  EXPECT_GT(half.log_std, 0.0);
+
+  Trajectory stopped;
+  for (int i = 0; i < 41; ++i) {
+    const double x = i < 20 ? 0.0 : 0.2 * (i - 20);  // stands still for the first 20 frames
+    stopped.Add(i * 100000000LL, SE3d(SO3d(), Eigen::Vector3d(x, 0.0, 0.0)));
+  }
+  const ScaleDriftResult skipped = ComputeStepScale(stopped, stopped);
+  ASSERT_EQ(skipped.ratios.size(), 1u);
+  EXPECT_EQ(skipped.first_index[0], 20u);
+  EXPECT_TRUE(std::isnan(skipped.log_std));  // one stretch
+
+  EXPECT_THROW(ComputeStepScale(gt, gt, 0), InputError);
+  EXPECT_THROW(ComputeStepScale(gt, StraightLine(100, 0.2)), InputError);
+}
+
 TEST(ScaleDrift, ShortRunsGiveNaNAndBadInputThrows) {
   const Trajectory gt = StraightLine(200, 0.2);  // 40 m: no full stretch
   const ScaleDriftResult none = ComputeScaleDrift(gt, gt);
