@@ -235,6 +235,12 @@ void Odometry::SubmitToWindow(const TrackedFrame& t, KeyframeData* given) {
     // The frames until the next keyframe are tracked against it.
     if (kf.stereo.num_replaced > 0) frontend_->SetReferenceDepth(t.index, data.depth);
   }
+  if (tracking.source_scale == "window" && kf.window_scale > 0.0) {
+    // The window's own scale, carried by the points it shares with the keyframe (DSO's way).
+    kf.source_scale = kf.window_scale;
+    data.initial_depth_scale = data.prior_depth_scale = kf.source_scale;
+    kf.initial_depth_scale = kf.source_scale;
+  }
   if (tracking.source_scale == "run_median" && kf.window_scale > 0.0) {
     window_scales_.push_back(kf.window_scale);
     std::vector<double> sorted = window_scales_;

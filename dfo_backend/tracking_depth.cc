@@ -34,8 +34,8 @@ void TrackingDepthOptions::Check() const {
               splat_radius_px, "in [0, 8]");
   CheckOption(initial_depth_scale == "window" || initial_depth_scale == "source",
               "window.initial_depth_scale", initial_depth_scale, "one of window|source");
-  CheckOption(source_scale == "raw" || source_scale == "run_median", "window.source_scale",
-              source_scale, "one of raw|run_median");
+  CheckOption(source_scale == "raw" || source_scale == "run_median" || source_scale == "window",
+              "window.source_scale", source_scale, "one of raw|run_median|window");
 }
 
 double WindowToSourceScale(const std::vector<Eigen::Vector3d>& points, const ImageF& depth,

@@ -57,7 +57,11 @@ struct TrackingDepthOptions {
   // "run_median" keeps the source's shape and its change of scale from image to image and
   // anchors the window at the source's scale times one calibration factor, robust to single
   // keyframes and fixed once the run is long. A factor over the recent keyframes only (the last
-  // 30 or 100) follows the window's own drift and lets it run away (docs/window.md).
+  // 30 or 100) follows the window's own drift and lets it run away (docs/window.md). "window",
+  // that map times the keyframe's own window-to-source ratio: the window's scale is carried from
+  // keyframe to keyframe by the points they share, as DSO carries it, and the source gives only
+  // the shape (its per-image scale no longer reaches the window); on real video the ratio jumps
+  // where the keyframe sees few or only far window points (docs/window.md).
   std::string source_scale = "raw";
   // window.rescale_source_steps: a frame tracked against its keyframe's source depth (tracker.depth
   // "source", or a keyframe that fell back to it) gets, in the windowed trajectory, its

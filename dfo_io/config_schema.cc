@@ -410,8 +410,10 @@ ConfigSchema BuildSchema() {
               "the median over the run's keyframes so far of the window's depth over the "
               "source's seen from the keyframe (run_median: the source gives the shape and its "
               "change of scale from image to image, the window's scale is not pulled toward the "
-              "source's)")
-      .OneOf({"raw", "run_median"});
+              "source's), or that times the keyframe's own ratio (window: the window's scale "
+              "carried by the points it shares with the keyframe, the source giving only the "
+              "shape)")
+      .OneOf({"raw", "run_median", "window"});
   s.AddBool("window.rescale_source_steps", true,
             "A frame tracked against its keyframe's source depth: its translation from the "
             "keyframe, in the windowed trajectory, times the window's depth over that depth "

@@ -520,9 +520,10 @@ TEST(Odometry, RescaledSourceStepsFollowTheWindowsScale) {
 }
 
 // window.source_scale: with run_median each keyframe's depth map enters the window at the median
-// of the window-to-source ratios of the keyframes so far (itself included); with raw at 1.
+// of the window-to-source ratios of the keyframes so far (itself included); with window at its
+// own ratio; with raw at 1.
 TEST(Odometry, RunMedianSourceScaleIsTheMedianOfTheWindowScalesSoFar) {
-  for (const std::string mode : {"raw", "run_median"}) {
+  for (const std::string mode : {"raw", "run_median", "window"}) {
     OdometryOptions o = Deterministic(OdometryMode::kBoth);
     o.tracking.depth = "source";
     o.tracking.source_scale = mode;
@@ -539,6 +540,7 @@ TEST(Odometry, RunMedianSourceScaleIsTheMedianOfTheWindowScalesSoFar) {
         expected = sorted[sorted.size() / 2];
         ++checked;
       }
+      if (mode == "window" && kf.window_scale > 0.0) expected = kf.window_scale;
       EXPECT_EQ(kf.source_scale, expected) << mode << ", keyframe " << kf.frame_index;
       EXPECT_EQ(kf.initial_depth_scale, expected) << mode << ", keyframe " << kf.frame_index;
     }
@@ -551,6 +553,32 @@ TEST(Odometry, RunMedianSourceScaleIsTheMedianOfTheWindowScalesSoFar) {
   OdometryOptions bad = Deterministic(OdometryMode::kBoth);
   bad.tracking.source_scale = "median";
   EXPECT_THROW(Odometry(External(), bad), ConfigError);
+}
+
+// The capability of window.source_scale "window": with a depth source whose every map has its
+// own scale, tracked against each keyframe's source depth with the steps rescaled to the window's
+// scale, the windowed trajectory keeps one scale (the window's, carried by the points that
+// keyframes share) where the frontend-only one takes each keyframe's; with "raw" the depth prior
+// pulls each keyframe's points toward its own map's scale.
+TEST(Odometry, CarriedSourceScaleKeepsTheWindowsScaleAgainstPerImageScales) {
+  double windowed[2] = {0, 0};
+  double frontend = 0.0;
+  const char* modes[2] = {"raw", "window"};
+  for (int k = 0; k < 2; ++k) {
+    OdometryOptions o = Deterministic(OdometryMode::kBoth);
+    o.tracking.depth = "source";
+    o.tracking.source_scale = modes[k];
+    Odometry odometry(External(), o, nullptr, std::make_unique<RandomScaleDepthSource>());
+    for (const Frame& f : Frames()) odometry.Process(f);
+    windowed[k] = StepScaleSpread(odometry.WindowedTrajectory());
+    frontend = StepScaleSpread(odometry.FrontendTrajectory());
+  }
+  std::printf(
+      "[ figures  ] step-length ratio spread (60 frames, depth scale per image log-normal sigma "
+      "0.2): frontend-only %.3f, windowed with source_scale raw %.3f, window %.3f\n",
+      frontend, windowed[0], windowed[1]);
+  EXPECT_LT(windowed[1], 0.5 * frontend);
+  EXPECT_LE(windowed[1], windowed[0]);
 }
 
 // Tracking against the window with the steps rescaled (both defaults): the frames after a keyframe
