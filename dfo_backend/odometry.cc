@@ -235,18 +235,17 @@ void Odometry::SubmitToWindow(const TrackedFrame& t, KeyframeData* given) {
     // The frames until the next keyframe are tracked against it.
     if (kf.stereo.num_replaced > 0) frontend_->SetReferenceDepth(t.index, data.depth);
   }
-  if (tracking.source_scale == "window" && kf.window_scale > 0.0) {
-    // The window's own scale, carried by the points it shares with the keyframe (DSO's way).
-    kf.source_scale = kf.window_scale;
-    data.initial_depth_scale = data.prior_depth_scale = kf.source_scale;
-    kf.initial_depth_scale = kf.source_scale;
-  }
-  if (tracking.source_scale == "run_median" && kf.window_scale > 0.0) {
-    window_scales_.push_back(kf.window_scale);
-    std::vector<double> sorted = window_scales_;
-    const auto middle = sorted.begin() + sorted.size() / 2;
-    std::nth_element(sorted.begin(), middle, sorted.end());
-    kf.source_scale = *middle;
+  if (tracking.source_scale != "raw" && kf.window_scale > 0.0) {
+    if (tracking.source_scale == "window") {
+      // The window's own scale, carried by the points it shares with the keyframe (DSO's way).
+      kf.source_scale = kf.window_scale;
+    } else {  // run_median
+      window_scales_.push_back(kf.window_scale);
+      std::vector<double> sorted = window_scales_;
+      const auto middle = sorted.begin() + sorted.size() / 2;
+      std::nth_element(sorted.begin(), middle, sorted.end());
+      kf.source_scale = *middle;
+    }
     data.initial_depth_scale = data.prior_depth_scale = kf.source_scale;
     kf.initial_depth_scale = kf.source_scale;
   }
