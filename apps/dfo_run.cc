@@ -8,6 +8,8 @@
 // Run `dfo_run --help` for the details. Errors print one line on stderr and exit with status 1
 // (2 for command-line mistakes). An error in the middle of the sequence (an unreadable image)
 // still writes everything computed up to that frame, with the message in summary.json's "error".
+#include <unistd.h>
+
 #include <atomic>
 #include <csignal>
 #include <cstdio>
@@ -266,13 +268,24 @@ void PrintLcmLine(const apps::LcmRunStreamer& streamer, const std::vector<double
   }
 }
 
-// The signal that asked the run to stop (0: none). SIGINT, SIGTERM and SIGHUP end the run at
-// the next frame with every output written; a second one ends the process at once.
+// The signal that asked the run to stop (0: none) and how many came. SIGINT, SIGTERM and SIGHUP
+// end the run at the next frame with every output written. Further ones (an impatient second
+// Ctrl-C; coreutils timeout, which signals the child and then its process group) skip the plots
+// but still write every result: only SIGKILL ends the process at once.
 std::atomic<int> g_stop_signal{0};
+std::atomic<int> g_stop_signals{0};
 
 extern "C" void OnStopSignal(int signal) {
-  g_stop_signal.store(signal);
-  std::signal(signal, SIG_DFL);
+  int none = 0;
+  g_stop_signal.compare_exchange_strong(none, signal);
+  if (g_stop_signals.fetch_add(1) == 1) {
+    // Async-signal-safe: write(2) of a constant line.
+    static const char kLine[] =
+        "dfo_run: another stop signal: writing the results computed so far without the plots "
+        "(SIGKILL would end it at once, keeping only frames.csv and the frontend trajectories)\n";
+    const ssize_t written = write(STDERR_FILENO, kLine, sizeof(kLine) - 1);
+    static_cast<void>(written);
+  }
 }
 
 int Run(const Args& args) {
@@ -417,13 +430,13 @@ int Run(const Args& args) {
     live.Append(frame, system.poses().FrontendPose(frame.tracked.index));
     if (stream) stream(frame, so_far, system);
   };
-  run_options.stop_signal = &g_stop_signal;
+  run_options.stop_signal = &g_stop_signal;  // a signal during start-up stops it at frame 0
   std::signal(SIGPIPE, SIG_IGN);
-  for (const int signal : {SIGINT, SIGTERM, SIGHUP}) std::signal(signal, OnStopSignal);
-  const apps::SequenceRunResult result = apps::RunSequence(provider, &odometry, run_options);
+  apps::SequenceRunResult result = apps::RunSequence(provider, &odometry, run_options);
+  result.stop_signals = g_stop_signals.load();
   if (streamer) streamer->Finish(result);
-  const apps::RunOutputs outputs =
-      apps::WriteRunOutputs(result, output_dir, config.GetBool("run.plot"));
+  const apps::RunOutputs outputs = apps::WriteRunOutputs(
+      result, output_dir, config.GetBool("run.plot") && g_stop_signals.load() < 2);
 
   const int lost = result.CountStatus(TrackingStatus::kLost);
   std::cout << "frames:      " << result.frames.size() << " of " << result.frames_in_sequence
@@ -463,6 +476,9 @@ int Run(const Args& args) {
   }
   if (result.interrupted_signal != 0) {
     std::cerr << "dfo_run: interrupted by " << apps::SignalName(result.interrupted_signal)
+              << (g_stop_signals.load() > 1
+                      ? " (" + std::to_string(g_stop_signals.load()) + " stop signals: no plots)"
+                      : std::string())
               << " after " << result.frames.size() << " of " << result.frames_in_sequence
               << " frames; their results are in " << output_dir << "\n";
     return 128 + result.interrupted_signal;
@@ -480,7 +496,10 @@ int Run(const Args& args) {
 }  // namespace dfo
 
 int main(int argc, char** argv) {
-  dfo::apps::UsePassiveOpenMpWait(argv);
+  // From the start: a stop signal during start-up (loading the model, opening the video) ends the
+  // run before its first frame with the outputs written and a line saying so.
+  dfo::apps::UsePassiveOpenMpWait(argv);  // may re-execute the process: handlers after it
+  for (const int signal : {SIGINT, SIGTERM, SIGHUP}) std::signal(signal, dfo::OnStopSignal);
   return dfo::apps::RunMain("dfo_run", [&] {
     const dfo::Args args = dfo::ParseArgs(argc, argv);
     if (args.help) {

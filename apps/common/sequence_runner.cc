@@ -468,6 +468,8 @@ io::JsonValue MakeRunSummary(const SequenceRunResult& result, const RunEvaluatio
     io::JsonValue interrupted = io::JsonValue::Object();
     interrupted.Set("signal", SignalName(result.interrupted_signal));
     interrupted.Set("frame", static_cast<int64_t>(result.frames.size()));
+    interrupted.Set("signals", static_cast<int64_t>(std::max(result.stop_signals, 1)));
+    interrupted.Set("plots_skipped", result.stop_signals > 1);
     s.Set("interrupted", std::move(interrupted));
   }
   return s;

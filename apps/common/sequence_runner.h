@@ -169,6 +169,8 @@ struct SequenceRunResult {
   std::vector<FrameRecord> frames;  // frames processed, in order (all of them unless error)
   std::string error;                // what stopped the run early; "" when every frame ran
   int interrupted_signal = 0;       // the SequenceRunOptions::stop_signal that ended it, or 0
+  // Stop signals received in all (set by the caller): from the second on the plots are skipped.
+  int stop_signals = 0;
   double wall_s = 0.0;              // wall time of the loop (loading included)
   RunMode mode = RunMode::kFrontend;
   TrajectoryStore poses;                  // every processed frame, relative to its keyframe

@@ -346,15 +346,17 @@ TEST(DfoRun, StartsOpenMpWithPassiveWaitUnlessTheUserChoseAnother) {
 std::string MakeLongSequence() { return test::SyntheticSequence(DFO_SYNTH_EXE, 150); }
 
 // Starts dfo_run on the long sequence in the background, waits until frames.csv holds `frames`
-// frame lines, sends `signal`, and returns the exit status.
-int RunAndSignal(const std::string& out, const char* signal, int frames) {
+// frame lines, sends `signal` (and then runs the shell commands `then`, with the process id in $p),
+// and returns the exit status.
+int RunAndSignal(const std::string& out, const char* signal, int frames,
+                 const std::string& then = "") {
   const std::string command = std::string(DFO_RUN_EXE) + " --config " + test::SourceDir() +
                               "/configs/demo.yaml --set dataset.path=" + MakeLongSequence() +
                               " --set run.progress=none --output " + out + " > " + out +
                               ".log 2>&1 & p=$!; i=0; " + "while [ \"$(cat " + out +
                               "/frames.csv 2>/dev/null | wc -l)\" -le " + std::to_string(frames) +
                               " ] && [ $i -lt 3000 ]; do sleep 0.02; i=$((i+1)); done; kill -" +
-                              signal + " $p; wait $p; echo $?";
+                              signal + " $p; " + then + " wait $p; echo $?";
   const CommandResult r = RunCommand("sh", "-c '" + command + "'");
   return std::atoi(r.out.c_str());
 }
@@ -382,6 +384,54 @@ TEST(DfoRunInterrupted, SigintAndSigtermWriteEveryOutputAndSaySo) {
     EXPECT_NE(ReadFile(out + ".log").find(std::string("interrupted by ") + name),
               std::string::npos);
   }
+}
+
+// Every output of a run that was stopped by a signal, complete, and the line that says so.
+void ExpectInterruptedRunComplete(const std::string& out, int signals) {
+  const std::string log = ReadFile(out + ".log");
+  const io::JsonValue summary = ReadSummary(out);
+  ASSERT_TRUE(summary.Has("interrupted")) << log;
+  const size_t frames = static_cast<size_t>(summary["frames"].AsInt());
+  EXPECT_EQ(FileLines(out + "/frontend_kitti.txt"), frames) << log;
+  EXPECT_EQ(FileLines(out + "/windowed_kitti.txt"), frames) << log;
+  EXPECT_EQ(FileLines(out + "/frames.csv"), frames + 1) << log;
+  EXPECT_TRUE(fs::exists(out + "/keyframes_tum.txt")) << log;
+  EXPECT_NE(log.find("dfo_run: interrupted by"), std::string::npos) << log;
+  if (signals > 1) {
+    EXPECT_EQ(summary["interrupted"]["signals"].AsInt(), signals) << log;
+    EXPECT_TRUE(summary["interrupted"]["plots_skipped"].AsBool()) << log;
+    EXPECT_NE(log.find("another stop signal"), std::string::npos) << log;
+  }
+}
+
+// An impatient Ctrl-C Ctrl-C, with the second signal at several moments of the first one's
+// hand-over (right away, during the last frame, while the outputs are written), and coreutils
+// timeout (which signals the process and then its group): every result is still written.
+TEST(DfoRunInterrupted, ASecondSignalStillWritesEveryResult) {
+  const std::string dir = test::MakeTempDir("dfo_run_double_signal");
+  const std::vector<std::string> gaps = {"",           "sleep 0.01;", "sleep 0.05;",
+                                         "sleep 0.1;", "sleep 0.2;",  "sleep 0.3;"};
+  for (size_t i = 0; i < gaps.size(); ++i) {
+    const std::string out = dir + "/double_" + std::to_string(i);
+    EXPECT_EQ(
+        RunAndSignal(out, "INT", 3 + static_cast<int>(i), gaps[i] + " kill -INT $p 2>/dev/null;"),
+        130)
+        << ReadFile(out + ".log");
+    // The second signal may come after the first one's outputs were written (then it is one).
+    const io::JsonValue summary = ReadSummary(out);
+    ExpectInterruptedRunComplete(out,
+                                 summary.Has("interrupted")
+                                     ? static_cast<int>(summary["interrupted"]["signals"].AsInt())
+                                     : 1);
+  }
+  // coreutils timeout: the run is stopped during its first frames.
+  const std::string out = dir + "/timeout";
+  const CommandResult r = RunCommand(
+      "sh", "-c 'timeout -s TERM 3 " + std::string(DFO_RUN_EXE) + " --config " + test::SourceDir() +
+                "/configs/demo.yaml --set dataset.path=" + MakeLongSequence() +
+                " --set run.progress=none --output " + out + " > " + out + ".log 2>&1; echo $?'");
+  EXPECT_EQ(std::atoi(r.out.c_str()), 124) << ReadFile(out + ".log");
+  ExpectInterruptedRunComplete(out, 1);
 }
 
 TEST(DfoRunInterrupted, SigkillLeavesThePerFrameFilesUpToTheLastFrames) {
