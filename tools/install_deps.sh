@@ -9,6 +9,7 @@ PACKAGES=(
   libeigen3-dev
   libopencv-dev
   libyaml-cpp-dev
+  zlib1g-dev        # CRC-32 and inflate of model archives (dfo_frontend/learned/internal/zip_archive.h)
   libceres-dev libsuitesparse-dev
   libtorch-dev
   liblcm-dev liblcm-bin

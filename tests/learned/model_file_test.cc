@@ -12,6 +12,7 @@
 #include <string>
 
 #include "dfo_core/error.h"
+#include "dfo_frontend/learned/internal/zip_archive.h"
 #include "dfo_frontend/learned/learned_sources.h"
 #include "tests/support/test_support.h"
 
@@ -245,6 +246,125 @@ TEST(ModelFileTest, NonFiniteWeightsAreRefusedNamingTheParameter) {
   EXPECT_TRUE(Contains(msg, "parameter depth." + nets->depth->named_parameters()[0].key() +
                                 " holds 2 non-finite value(s)"))
       << msg;
+}
+
+std::string ReadBytes(const std::string& path) {
+  std::ifstream in(path, std::ios::binary);
+  return std::string(std::istreambuf_iterator<char>(in), std::istreambuf_iterator<char>());
+}
+
+void WriteBytes(const std::string& path, const std::string& bytes) {
+  std::ofstream(path, std::ios::binary)
+      .write(bytes.data(), static_cast<std::streamsize>(bytes.size()));
+}
+
+TEST(ZipArchiveTest, Crc32OfTheStandardCheckString) {
+  EXPECT_EQ(Crc32(0, "123456789", 9), 0xCBF43926u);
+  // Continued over two pieces: the same.
+  EXPECT_EQ(Crc32(Crc32(0, "1234", 4), "56789", 5), 0xCBF43926u);
+}
+
+TEST(ZipArchiveTest, SavedModelsAndTheShippedOnesPass) {
+  const std::string path = test::MakeTempDir("zip_intact") + "/model.dfo";
+  Networks nets(SmallOptions(), 3);
+  SaveModel(path, *nets);
+  const ZipArchiveCheck check = CheckZipArchive(path, "model file " + path);
+  EXPECT_TRUE(check.is_zip);
+  EXPECT_GT(check.entries, 20);
+  EXPECT_GT(check.checked_bytes, 10000);
+  for (const char* model : {"models/default.dfo", "models/kitti.dfo"}) {
+    const std::string shipped = test::SourceDir() + "/" + model;
+    const ZipArchiveCheck c = CheckZipArchive(shipped, shipped);
+    EXPECT_TRUE(c.is_zip) << model;
+    EXPECT_GT(c.checked_bytes, 4000000) << model;  // every weight's bytes
+  }
+  // No ZIP archive at all: nothing checked, nothing thrown (LoadModel says what it expected).
+  const std::string text = test::MakeTempDir("zip_text") + "/notes.txt";
+  WriteBytes(text, "not an archive\n");
+  EXPECT_FALSE(CheckZipArchive(text, text).is_zip);
+}
+
+// A model whose weights were changed in place after it was written (its archive's CRC-32 then
+// disagrees), or cut short, is refused naming the file and the damaged entry.
+TEST(ModelFileTest, DamagedOrTruncatedArchiveIsRefusedNamingTheEntry) {
+  const std::string dir = test::MakeTempDir("model_damaged");
+  const std::string path = dir + "/model.dfo";
+  Networks nets(SmallOptions(), 4);
+  SaveModel(path, *nets);
+  const std::string intact = ReadBytes(path);
+  // The stored bytes of the first depth parameter, found in the file and changed by one bit.
+  const torch::Tensor w = nets->depth->named_parameters()[0].value().contiguous();
+  const std::string weight_bytes(reinterpret_cast<const char*>(w.data_ptr<float>()),
+                                 sizeof(float) * 8);
+  const size_t at = intact.find(weight_bytes);
+  ASSERT_NE(at, std::string::npos);
+  std::string damaged = intact;
+  damaged[at + 5] = static_cast<char>(damaged[at + 5] ^ 0x10);
+  const std::string changed = dir + "/changed.dfo";
+  WriteBytes(changed, damaged);
+  std::string msg = InputErrorOf([&] { LoadModel(changed); });
+  EXPECT_TRUE(Contains(msg, changed)) << msg;
+  EXPECT_TRUE(Contains(msg, "fails its CRC-32 check")) << msg;
+  EXPECT_TRUE(Contains(msg, "entry '")) << msg;
+
+  // A change anywhere (probed at 40 positions) is refused, or it fell into bytes that hold no
+  // content (the padding LibTorch puts in local headers to align the data) and the model loads
+  // with the very same weights.
+  int refused = 0;
+  for (int k = 1; k <= 40; ++k) {
+    std::string copy = intact;
+    const size_t pos = copy.size() * static_cast<size_t>(k) / 41;
+    copy[pos] = static_cast<char>(copy[pos] ^ 0x5a);
+    const std::string probe = dir + "/probe.dfo";
+    WriteBytes(probe, copy);
+    try {
+      const LoadedModel loaded = LoadModel(probe);
+      const auto a = nets->named_parameters(), b = loaded.networks->named_parameters();
+      ASSERT_EQ(a.size(), b.size());
+      for (size_t i = 0; i < a.size(); ++i) {
+        EXPECT_TRUE(torch::equal(a[i].value(), b[i].value()))
+            << "byte " << pos << ": " << a[i].key();
+      }
+    } catch (const InputError& e) {
+      EXPECT_TRUE(Contains(e.what(), probe)) << "byte " << pos << ": " << e.what();
+      ++refused;
+    }
+  }
+  EXPECT_GE(refused, 30);
+
+  // Cut short: at half its size and without its last 10 bytes.
+  for (const size_t keep : {intact.size() / 2, intact.size() - 10}) {
+    const std::string cut = dir + "/cut.dfo";
+    WriteBytes(cut, intact.substr(0, keep));
+    msg = InputErrorOf([&] { LoadModel(cut); });
+    EXPECT_TRUE(Contains(msg, cut)) << msg;
+    EXPECT_TRUE(Contains(msg, "truncated")) << keep << ": " << msg;
+  }
+}
+
+// Weights that are finite but no training leaves (1e30 written over a tensor, with a valid
+// archive) are refused naming the parameter and the bound.
+TEST(ModelFileTest, ImplausibleWeightsAreRefusedNamingTheParameter) {
+  const std::string path = test::MakeTempDir("model_huge") + "/huge.dfo";
+  Networks nets(SmallOptions(), 6);
+  const std::string name = nets->feature->named_parameters()[2].key();
+  {
+    torch::NoGradGuard no_grad;
+    nets->feature->named_parameters()[2].value().fill_(1e30f);
+  }
+  SaveModel(path, *nets);
+  const std::string msg = InputErrorOf([&] { LoadModel(path); });
+  EXPECT_TRUE(Contains(msg, path)) << msg;
+  EXPECT_TRUE(Contains(msg, "parameter feature." + name)) << msg;
+  EXPECT_TRUE(Contains(msg, "implausible")) << msg;
+  // Just below the bound still loads.
+  {
+    torch::NoGradGuard no_grad;
+    nets->feature->named_parameters()[2].value().fill_(
+        static_cast<float>(0.5 * kMaxPlausibleWeight));
+  }
+  SaveModel(path, *nets);
+  EXPECT_NO_THROW(LoadModel(path));
 }
 
 TEST(ModelFileTest, ModelThatDisagreesWithTheConfiguration) {

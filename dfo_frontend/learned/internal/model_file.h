@@ -47,6 +47,8 @@ namespace dfo::learned {
 
 constexpr const char* kModelFormatTag = "dfo-model";
 constexpr int kModelFileVersion = 1;
+// Weights beyond this magnitude make LoadModel refuse the file (model_file.cc, CheckPlausible).
+constexpr double kMaxPlausibleWeight = 1e4;
 
 // Writes both networks and their options to `path` (format 1 above), overwriting it. `notes`
 // (e.g. the training command and config) is stored verbatim. The file holds CPU tensors also
@@ -69,7 +71,9 @@ struct LoadedModel {
 // unreadable file, not a torch archive (e.g. a PNG), a torch file that is neither format (e.g. a
 // torch.save'd tensor or a TorchScript module without the contract's attributes), unsupported
 // version, invalid metadata (NetworkOptions::Check), a parameter missing or of another shape than
-// the metadata implies, TorchScript outputs of the wrong structure or shape.
+// the metadata implies, TorchScript outputs of the wrong structure or shape, an archive entry whose
+// CRC-32 or size does not match (the file was changed after it was written; CheckZipArchive),
+// a weight that is non-finite or beyond kMaxPlausibleWeight in magnitude (named with its tensor).
 LoadedModel LoadModel(const std::string& path);
 
 // Checks the structure and shapes of one TorchScript forward output for an input of

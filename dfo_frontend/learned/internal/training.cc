@@ -20,6 +20,7 @@
 #include "dfo_core/frame.h"
 #include "dfo_frontend/feature_source.h"
 #include "dfo_frontend/learned/internal/device.h"
+#include "dfo_frontend/learned/internal/zip_archive.h"
 
 namespace dfo::learned {
 
@@ -776,6 +777,9 @@ namespace {
 // device they were trained on: one written on a GPU loads on a CPU-only machine).
 torch::serialize::InputArchive OpenCheckpoint(const std::string& path,
                                               const torch::Device& device) {
+  // A checkpoint changed after it was written (a disk error, a copy cut short) is refused before
+  // training resumes from it.
+  CheckZipArchive(path, "checkpoint " + path);
   torch::serialize::InputArchive archive;
   try {
     archive.load_from(path, device);
