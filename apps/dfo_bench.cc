@@ -90,62 +90,34 @@ struct Args {
   bool help = false;
 };
 
-int ParseInt(const std::string& flag, const std::string& text, int lo, int hi) {
-  errno = 0;
-  char* end = nullptr;
-  const long v = std::strtol(text.c_str(), &end, 10);
-  if (text.empty() || *end != '\0' || errno != 0 || v < lo || v > hi) {
-    throw UsageError(flag + " expects an integer in [" + std::to_string(lo) + ", " +
-                     std::to_string(hi) + "], got '" + text + "'");
-  }
-  return static_cast<int>(v);
-}
-
 Args ParseArgs(int argc, char** argv) {
   Args a;
-  for (int i = 1; i < argc; ++i) {
-    const std::string flag = argv[i];
-    const auto value = [&]() -> std::string {
-      if (i + 1 >= argc) throw UsageError(flag + " needs a value");
-      return argv[++i];
-    };
-    if (flag == "--help" || flag == "-h") {
-      a.help = true;
-    } else if (flag == "--frames") {
-      a.frames = ParseInt(flag, value(), 2, 100000);
-    } else if (flag == "--threads") {
-      a.threads = ParseInt(flag, value(), 1, 256);
-    } else if (flag == "--levels") {
-      a.levels = ParseInt(flag, value(), 1, 8);
-    } else if (flag == "--seed") {
-      a.seed = static_cast<uint64_t>(ParseInt(flag, value(), 0, 1 << 30));
-    } else if (flag == "--whole-run") {
-      a.whole_run = true;
-    } else if (flag == "--run-frames") {
-      a.run_frames = ParseInt(flag, value(), 2, 100000);
-    } else if (flag == "--sequence") {
-      a.sequence = value();
-    } else if (flag == "--features") {
-      a.features = value();
-    } else if (flag == "--depth") {
-      a.depth = value();
-    } else if (flag == "--model") {
-      a.model = value();
-    } else if (flag == "--write-untrained-model") {
-      a.write_model = value();
-      if (a.write_model.empty()) throw UsageError(flag + " needs a file name");
-    } else if (flag == "--model-size") {
-      const std::string size = value();
-      const size_t x = size.find('x');
-      if (x == std::string::npos) {
-        throw UsageError(flag + " expects WxH (e.g. 416x128), got '" + size + "'");
-      }
-      a.model_width = ParseInt(flag + " width", size.substr(0, x), 8, 8192);
-      a.model_height = ParseInt(flag + " height", size.substr(x + 1), 8, 8192);
-    } else {
-      throw UsageError("unknown argument '" + flag + "'");
-    }
-  }
+  int seed = 1;
+  apps::ArgParser parser;
+  parser.Flag("--help", &a.help, "-h")
+      .Int("--frames", &a.frames, 2, 100000)
+      .Int("--threads", &a.threads, 1, 256)
+      .Int("--levels", &a.levels, 1, 8)
+      .Int("--seed", &seed, 0, 1 << 30)
+      .Flag("--whole-run", &a.whole_run)
+      .Int("--run-frames", &a.run_frames, 2, 100000)
+      .Value("--sequence", &a.sequence)
+      .Value("--features", &a.features)
+      .Value("--depth", &a.depth)
+      .Value("--model", &a.model)
+      .Value("--write-untrained-model", &a.write_model)
+      .Custom("--model-size", [&](const std::string& size) {
+        const size_t x = size.find('x');
+        if (x == std::string::npos) {
+          throw UsageError("--model-size expects WxH (e.g. 416x128), got '" + size + "'");
+        }
+        a.model_width = static_cast<int>(
+            apps::ParseIntArgument("--model-size width", size.substr(0, x), 8, 8192));
+        a.model_height = static_cast<int>(
+            apps::ParseIntArgument("--model-size height", size.substr(x + 1), 8, 8192));
+      });
+  parser.Parse(argc, argv);
+  if (parser.Given("--seed")) a.seed = static_cast<uint64_t>(seed);
   return a;
 }
 

@@ -16,10 +16,12 @@
 #include <cstdio>
 #include <cstdlib>
 #include <exception>
+#include <limits>
 #include <random>
 #include <string>
 #include <vector>
 
+#include "apps/common/cli.h"
 #include "apps/common/run_stats.h"
 #include "dfo_backend/window_optimizer.h"
 #include "dfo_core/error.h"
@@ -77,85 +79,46 @@ struct Args {
   double perturbation = 1.0;
   HandmadeFeatureOptions features;
   bool verbose = false;
+  bool help = false;
   WindowOptions window;
 };
 
-int ParseInt(const std::string& flag, const char* value) {
-  char* end = nullptr;
-  const long v = std::strtol(value, &end, 10);
-  if (end == value || *end != '\0') throw InputError(flag + ": '" + value + "' is not an integer");
-  return static_cast<int>(v);
-}
-
 Args Parse(int argc, char** argv) {
   Args args;
-  for (int i = 1; i < argc; ++i) {
-    const std::string flag = argv[i];
-    auto next = [&]() -> const char* {
-      if (i + 1 >= argc) throw InputError(flag + " needs a value");
-      return argv[++i];
-    };
-    if (flag == "--help") {
-      std::printf("%s", kUsage);
-      std::exit(0);
-    } else if (flag == "--keyframes") {
-      args.keyframes = ParseInt(flag, next());
-    } else if (flag == "--step") {
-      args.step = ParseInt(flag, next());
-    } else if (flag == "--threads") {
-      args.window.num_threads = ParseInt(flag, next());
-    } else if (flag == "--window") {
-      args.window.max_keyframes = ParseInt(flag, next());
-    } else if (flag == "--points") {
-      args.window.points_per_keyframe = ParseInt(flag, next());
-    } else if (flag == "--iterations") {
-      args.window.max_iterations = ParseInt(flag, next());
-    } else if (flag == "--time-limit") {
-      args.window.max_solver_time_s = std::atof(next());
-    } else if (flag == "--depth-prior") {
-      args.window.depth_prior_weight = std::atof(next());
-    } else if (flag == "--depth-search") {
-      args.window.depth_search_range = std::atof(next());
-    } else if (flag == "--level") {
-      args.window.pyramid_level = ParseInt(flag, next());
-    } else if (flag == "--patch") {
-      args.window.patch_size = ParseInt(flag, next());
-    } else if (flag == "--max-stretch") {
-      args.window.max_patch_stretch = std::atof(next());
-    } else if (flag == "--zoom-blur") {
-      args.window.zoom_blur_sigma_px = std::atof(next());
-    } else if (flag == "--zoom-scaled-gradients") {
-      args.window.zoom_scaled_gradients = true;
-    } else if (flag == "--patch-depth-shape") {
-      args.window.patch_depth_shape = true;
-    } else if (flag == "--descriptor") {
-      args.features.descriptor = next();
-    } else if (flag == "--blur") {
-      args.features.blur_sigma_px = std::atof(next());
-    } else if (flag == "--perturbation") {
-      args.perturbation = std::atof(next());
-      if (!(args.perturbation >= 0.0)) throw InputError("--perturbation must be >= 0");
-    } else if (flag == "--fej") {
-      args.window.first_estimate_jacobians = true;
-    } else if (flag == "--prior-weight") {
-      args.window.prior_weight = std::atof(next());
-    } else if (flag == "--min-point-fraction") {
-      args.window.min_point_fraction = std::atof(next());
-    } else if (flag == "--eigen-floor") {
-      args.window.relative_eigenvalue_floor = std::atof(next());
-    } else if (flag == "--solver") {
-      args.window.linear_solver = next();
-    } else if (flag == "--no-marginalization") {
-      args.window.marginalization = false;
-    } else if (flag == "--verbose") {
-      args.verbose = true;
-    } else if (flag == "--seed") {
-      args.seed = ParseInt(flag, next());
-    } else {
-      throw InputError("unknown option '" + flag + "' (see --help)");
-    }
-  }
-  if (args.keyframes < 2 || args.step < 1) throw InputError("--keyframes >= 2 and --step >= 1");
+  const double inf = std::numeric_limits<double>::infinity();
+  WindowOptions& w = args.window;
+  bool no_marginalization = false;
+  apps::ArgParser parser;
+  parser.Flag("--help", &args.help, "-h")
+      .Int("--keyframes", &args.keyframes, 2, 100000)
+      .Int("--step", &args.step, 1, 100000)
+      .Int("--threads", &w.num_threads, 1, 256)
+      .Int("--window", &w.max_keyframes, 1, 1000)
+      .Int("--points", &w.points_per_keyframe, 1, 1000000)
+      .Int("--iterations", &w.max_iterations, 1, 100000)
+      .Number("--time-limit", &w.max_solver_time_s, -inf, inf)
+      .Number("--depth-prior", &w.depth_prior_weight, -inf, inf)
+      .Number("--depth-search", &w.depth_search_range, -inf, inf)
+      .Int("--level", &w.pyramid_level, 0, 16)
+      .Int("--patch", &w.patch_size, 1, 99)
+      .Number("--max-stretch", &w.max_patch_stretch, -inf, inf)
+      .Number("--zoom-blur", &w.zoom_blur_sigma_px, -inf, inf)
+      .Flag("--zoom-scaled-gradients", &w.zoom_scaled_gradients)
+      .Flag("--patch-depth-shape", &w.patch_depth_shape)
+      .Value("--descriptor", &args.features.descriptor)
+      .Number("--blur", &args.features.blur_sigma_px, -inf, inf)
+      .Number("--perturbation", &args.perturbation, 0.0, inf)
+      .Flag("--fej", &w.first_estimate_jacobians)
+      .Number("--prior-weight", &w.prior_weight, -inf, inf)
+      .Number("--min-point-fraction", &w.min_point_fraction, -inf, inf)
+      .Number("--eigen-floor", &w.relative_eigenvalue_floor, -inf, inf)
+      .Value("--solver", &w.linear_solver)
+      .Flag("--no-marginalization", &no_marginalization)
+      .Flag("--verbose", &args.verbose)
+      .Int("--seed", &args.seed, 0, std::numeric_limits<int>::max());
+  parser.Parse(argc, argv);
+  if (args.help) return args;
+  if (no_marginalization) w.marginalization = false;
   args.window.Check();
   args.features.Check();
   return args;
@@ -294,10 +257,12 @@ int Run(const Args& args) {
 }  // namespace dfo
 
 int main(int argc, char** argv) {
-  try {
-    return dfo::Run(dfo::Parse(argc, argv));
-  } catch (const std::exception& e) {
-    std::fprintf(stderr, "dfo_bench_backend: %s\n", e.what());
-    return 1;
-  }
+  return dfo::apps::RunMain("dfo_bench_backend", [&] {
+    const dfo::Args args = dfo::Parse(argc, argv);
+    if (args.help) {
+      std::printf("%s", dfo::kUsage);
+      return 0;
+    }
+    return dfo::Run(args);
+  });
 }

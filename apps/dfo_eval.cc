@@ -16,11 +16,13 @@
 #include <cstdlib>
 #include <filesystem>
 #include <iostream>
+#include <limits>
 #include <map>
 #include <set>
 #include <string>
 #include <vector>
 
+#include "apps/common/args.h"
 #include "apps/common/evaluation.h"
 #include "apps/common/progress.h"
 #include "dfo_core/alignment.h"
@@ -40,10 +42,7 @@ namespace dfo {
 namespace {
 
 // A command-line mistake: printed with a hint to --help, exit status 2.
-class UsageError : public Error {
- public:
-  using Error::Error;
-};
+using apps::UsageError;
 
 constexpr const char* kMainHelp =
     "usage: dfo_eval <command> [options]\n"
@@ -133,28 +132,24 @@ constexpr const char* kStereoDepthHelp =
     "  --threads N            worker threads (default 2; the maps do not depend on it)\n"
     "  --help                 this text\n";
 
-// Parsed "--key value" and "--flag" options of one command.
+// Parsed "--key value" and "--flag" options of one command (apps::ArgParser: each at most once,
+// no positional arguments).
 class Options {
  public:
   Options(const std::string& command, int argc, char** argv,
           const std::set<std::string>& with_value, const std::set<std::string>& flags)
       : command_(command) {
-    for (int i = 0; i < argc; ++i) {
-      const std::string arg = argv[i];
-      if (flags.count(arg) != 0) {
-        values_[arg] = "";
-      } else if (with_value.count(arg) != 0) {
-        if (i + 1 >= argc) throw UsageError("option " + arg + " needs a value");
-        const std::string value = argv[++i];
-        if (value.rfind("--", 0) == 0 && value.size() > 2 && !std::isdigit(value[2])) {
-          throw UsageError("option " + arg + " needs a value, found option " + value);
-        }
-        values_[arg] = value;
-      } else if (arg.rfind("-", 0) == 0) {
-        throw UsageError("unknown option '" + arg + "'");
-      } else {
-        throw UsageError("unexpected argument '" + arg + "'");
-      }
+    apps::ArgParser parser;
+    bool help = false;  // the commands look for --help before parsing
+    parser.Flag("--help", &help, "-h");
+    for (const std::string& key : with_value) {
+      parser.Custom(key, [this, key](const std::string& v) { values_[key] = v; });
+    }
+    std::map<std::string, bool> flag_values;
+    for (const std::string& key : flags) parser.Flag(key, &flag_values[key]);
+    parser.Parse(argc, argv, 0);
+    for (const auto& [key, on] : flag_values) {
+      if (on) values_[key] = "";
     }
   }
 
@@ -166,20 +161,14 @@ class Options {
   }
 
   std::string Required(const std::string& key) const {
-    if (!Has(key)) throw UsageError("option " + key + " is required");
+    if (!Has(key)) throw UsageError(key + " is required");
     return values_.at(key);
   }
 
   double Number(const std::string& key, double fallback) const {
     if (!Has(key)) return fallback;
-    const std::string& text = values_.at(key);
-    errno = 0;
-    char* end = nullptr;
-    const double v = std::strtod(text.c_str(), &end);
-    if (end == text.c_str() || *end != '\0' || errno != 0 || !std::isfinite(v)) {
-      throw UsageError("option " + key + " = '" + text + "' is not a number");
-    }
-    return v;
+    const double inf = std::numeric_limits<double>::infinity();
+    return apps::ParseNumberArgument(key, values_.at(key), -inf, inf);
   }
 
  private:
@@ -192,35 +181,6 @@ bool WantsHelp(int argc, char** argv) {
     if (std::string(argv[i]) == "--help" || std::string(argv[i]) == "-h") return true;
   }
   return false;
-}
-
-// "kitti" when the first data line has 12 numbers, "tum" when 8.
-io::TrajectoryFormat DetectFormat(const std::string& path) {
-  std::FILE* f = std::fopen(path.c_str(), "r");
-  if (f == nullptr) throw InputError("trajectory file not found: " + path);
-  char buf[4096];
-  int line = 0;
-  while (std::fgets(buf, sizeof(buf), f) != nullptr) {
-    ++line;
-    std::string s(buf);
-    const size_t first = s.find_first_not_of(" \t\r\n");
-    if (first == std::string::npos || s[first] == '#') continue;
-    std::fclose(f);
-    size_t count = 0;
-    bool in_token = false;
-    for (const char c : s) {
-      const bool space = c == ' ' || c == '\t' || c == '\r' || c == '\n' || c == ',';
-      if (!space && !in_token) ++count;
-      in_token = !space;
-    }
-    if (count == 12) return io::TrajectoryFormat::kKitti;
-    if (count == 8) return io::TrajectoryFormat::kTum;
-    throw InputError(path + ":" + std::to_string(line) + ": cannot tell the format from a line " +
-                     "with " + std::to_string(count) +
-                     " values, expected 12 (kitti) or 8 (tum); give --format");
-  }
-  std::fclose(f);
-  throw InputError("trajectory file " + path + " has no pose line");
 }
 
 std::string Fixed(double v, int decimals = 6) { return apps::FormatFixed(v, decimals); }
@@ -239,7 +199,7 @@ int RunTraj(int argc, char** argv) {
   const std::string format_name = opt.Get("--format", "auto");
   io::TrajectoryFormat format;
   if (format_name == "auto") {
-    format = DetectFormat(gt_path);
+    format = io::DetectTrajectoryFormat(gt_path, "ground-truth trajectory");
   } else {
     try {
       format = io::ParseTrajectoryFormat(format_name);
@@ -332,6 +292,9 @@ int RunTraj(int argc, char** argv) {
     io::WriteTrajectoryPlot(opt.Get("--plot", ""), gt, aligned, ate.errors, plot);
   }
 
+  for (const std::string& w : apps::EvaluationWarnings(evaluation)) {
+    std::cerr << "dfo_eval traj: warning: " << w << "\n";
+  }
   if (json) {
     std::cout << apps::EvaluationToJson(evaluation).Dump() << "\n";
     return 0;

@@ -74,54 +74,19 @@ struct Args {
 
 Args ParseArgs(int argc, char** argv) {
   Args args;
-  for (int i = 1; i < argc; ++i) {
-    std::string flag = argv[i], value;
-    const bool has_value = apps::SplitFlagValue(&flag, &value);
-    if (flag == "--help" || flag == "-h") {
-      args.help = true;
-      continue;
-    }
-    if (flag == "--quiet") {
-      args.quiet = true;
-      continue;
-    }
-    std::string* target = nullptr;
-    std::string timeout_text;
-    if (flag == "--url") {
-      target = &args.url;
-    } else if (flag == "--channel") {
-      target = &args.channels.pose;
-    } else if (flag == "--keyframes-channel") {
-      target = &args.channels.keyframes;
-    } else if (flag == "--status-channel") {
-      target = &args.channels.status;
-    } else if (flag == "--stop-channel") {
-      target = &args.channels.stop;
-    } else if (flag == "--tum") {
-      target = &args.tum_path;
-    } else if (flag == "--source") {
-      target = &args.source;
-    } else if (flag == "--log") {
-      target = &args.log_path;
-    } else if (flag == "--timeout") {
-      target = &timeout_text;
-    } else {
-      throw UsageError("unknown argument '" + std::string(argv[i]) + "'");
-    }
-    if (!has_value) {
-      if (i + 1 >= argc) throw UsageError(flag + " needs a value");
-      value = argv[++i];
-    }
-    if (value.empty()) throw UsageError(flag + " needs a non-empty value");
-    *target = value;
-    if (target == &timeout_text) {
-      char* end = nullptr;
-      args.timeout_s = std::strtod(value.c_str(), &end);
-      if (end == value.c_str() || *end != '\0' || !(args.timeout_s >= 0.0)) {
-        throw UsageError("--timeout needs a number of seconds >= 0, got '" + value + "'");
-      }
-    }
-  }
+  apps::ArgParser parser;
+  parser.Flag("--help", &args.help, "-h")
+      .Flag("--quiet", &args.quiet)
+      .Value("--url", &args.url)
+      .Value("--channel", &args.channels.pose)
+      .Value("--keyframes-channel", &args.channels.keyframes)
+      .Value("--status-channel", &args.channels.status)
+      .Value("--stop-channel", &args.channels.stop)
+      .Value("--tum", &args.tum_path)
+      .Value("--source", &args.source)
+      .Value("--log", &args.log_path)
+      .Number("--timeout", &args.timeout_s, 0.0, 1e9);
+  parser.Parse(argc, argv);
   if (args.source != "auto" && args.source != "windowed" && args.source != "frontend") {
     throw UsageError("--source must be auto, windowed or frontend, got '" + args.source + "'");
   }

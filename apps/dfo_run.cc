@@ -103,34 +103,14 @@ struct Args {
 
 Args ParseArgs(int argc, char** argv) {
   Args args;
-  for (int i = 1; i < argc; ++i) {
-    std::string flag = argv[i], value;
-    const bool has_value = dfo::apps::SplitFlagValue(&flag, &value);
-    if (flag == "--help" || flag == "-h") {
-      args.help = true;
-      continue;
-    }
-    if (flag == "--print-config") {
-      args.print_config = true;
-      continue;
-    }
-    if (flag != "--config" && flag != "--set" && flag != "--output") {
-      throw UsageError("unknown argument '" + std::string(argv[i]) + "'");
-    }
-    if (!has_value) {
-      if (i + 1 >= argc) throw UsageError(flag + " needs a value");
-      value = argv[++i];
-    }
-    if (flag == "--config") {
-      if (value.empty()) throw UsageError("--config needs a file name");
-      args.config_path = value;
-    } else if (flag == "--set") {
-      args.overrides.push_back(value);
-    } else {
-      if (value.empty()) throw UsageError("--output needs a folder name");
-      args.overrides.push_back("run.output_dir=" + value);
-    }
-  }
+  apps::ArgParser parser;
+  parser.Flag("--help", &args.help, "-h")
+      .Flag("--print-config", &args.print_config)
+      .Value("--config", &args.config_path)
+      .Values("--set", &args.overrides)
+      .Custom("--output",
+              [&](const std::string& v) { args.overrides.push_back("run.output_dir=" + v); });
+  parser.Parse(argc, argv);
   return args;
 }
 
@@ -471,6 +451,14 @@ int Run(const Args& args) {
   std::cout.flush();
 
   for (const std::string& what : live.problems()) std::cerr << "dfo_run: warning: " << what << "\n";
+  const auto evaluation_warnings = [](const apps::RunEvaluation& e, const char* which) {
+    if (!e.available) return;
+    for (const std::string& w : apps::EvaluationWarnings(e.sim3)) {
+      std::cerr << "dfo_run: warning: " << which << " trajectory: " << w << "\n";
+    }
+  };
+  if (result.has_frontend()) evaluation_warnings(outputs.evaluation, "frontend");
+  if (result.has_windowed()) evaluation_warnings(outputs.windowed_evaluation, "windowed");
   for (const std::string& what : outputs.incomplete) {
     std::cerr << "dfo_run: error: not written completely: " << what << "\n";
   }

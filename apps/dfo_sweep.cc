@@ -15,6 +15,7 @@
 #include <filesystem>
 #include <fstream>
 #include <iostream>
+#include <limits>
 #include <string>
 #include <thread>
 #include <vector>
@@ -77,55 +78,20 @@ struct Args {
   bool help = false;
 };
 
-int ParseInt(const std::string& flag, const std::string& value, int min) {
-  try {
-    size_t used = 0;
-    const int v = std::stoi(value, &used);
-    if (used == value.size() && v >= min) return v;
-  } catch (const std::exception&) {
-  }
-  throw UsageError(flag + " needs an integer >= " + std::to_string(min) + ", got '" + value + "'");
-}
-
 Args ParseArgs(int argc, char** argv) {
   Args args;
-  for (int i = 1; i < argc; ++i) {
-    std::string flag = argv[i], value;
-    const bool has_value = apps::SplitFlagValue(&flag, &value);
-    const auto take_value = [&] {
-      if (!has_value) {
-        if (i + 1 >= argc) throw UsageError(flag + " needs a value");
-        value = argv[++i];
-      }
-      return value;
-    };
-    if (flag == "--help" || flag == "-h") {
-      args.help = true;
-    } else if (flag == "--slurm") {
-      args.slurm = true;
-    } else if (flag == "--no-submit") {
-      args.no_submit = true;
-    } else if (flag == "--wait") {
-      args.wait = true;
-    } else if (flag == "--collect") {
-      args.collect = true;
-    } else if (flag == "--list") {
-      args.list = true;
-    } else if (flag == "--parallel") {
-      args.parallel = ParseInt(flag, take_value(), 1);
-    } else if (flag == "--run-index") {
-      args.run_index = ParseInt(flag, take_value(), 0);
-    } else if (flag == "--dfo-run") {
-      args.dfo_run = take_value();
-      if (args.dfo_run.empty()) throw UsageError("--dfo-run needs a path");
-    } else if (flag.rfind("-", 0) == 0) {
-      throw UsageError("unknown argument '" + std::string(argv[i]) + "'");
-    } else if (args.sweep.empty()) {
-      args.sweep = argv[i];
-    } else {
-      throw UsageError("one sweep file only; got '" + args.sweep + "' and '" + argv[i] + "'");
-    }
-  }
+  apps::ArgParser parser;
+  parser.Flag("--help", &args.help, "-h")
+      .Flag("--slurm", &args.slurm)
+      .Flag("--no-submit", &args.no_submit)
+      .Flag("--wait", &args.wait)
+      .Flag("--collect", &args.collect)
+      .Flag("--list", &args.list)
+      .Int("--parallel", &args.parallel, 1, 4096)
+      .Int("--run-index", &args.run_index, 0, std::numeric_limits<int>::max())
+      .Value("--dfo-run", &args.dfo_run)
+      .Positional("SWEEP_FILE", &args.sweep, /*required=*/false);
+  parser.Parse(argc, argv);
   if (args.help) return args;
   if (args.sweep.empty()) throw UsageError("no sweep file given");
   const int modes = args.slurm + args.collect + (args.run_index >= 0) + args.list;

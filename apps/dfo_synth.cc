@@ -7,6 +7,7 @@
 #include <cstdlib>
 #include <exception>
 #include <iostream>
+#include <limits>
 #include <string>
 #include <thread>
 
@@ -41,37 +42,6 @@ Flags take their value as the next argument or after '=' (--frames=100).
 
 using dfo::apps::UsageError;
 
-int64_t ParseInt(const std::string& flag, const std::string& text, int64_t lo, int64_t hi) {
-  errno = 0;
-  char* end = nullptr;
-  const long long v = std::strtoll(text.c_str(), &end, 10);
-  if (text.empty() || *end != '\0' || errno != 0 || v < lo || v > hi) {
-    throw UsageError(flag + " expects an integer in [" + std::to_string(lo) + ", " +
-                     std::to_string(hi) + "], got '" + text + "'");
-  }
-  return v;
-}
-
-uint64_t ParseSeed(const std::string& text) {
-  errno = 0;
-  char* end = nullptr;
-  const unsigned long long v = std::strtoull(text.c_str(), &end, 10);
-  if (text.empty() || text[0] == '-' || *end != '\0' || errno != 0) {
-    throw UsageError("--seed expects a non-negative integer, got '" + text + "'");
-  }
-  return v;
-}
-
-double ParseDouble(const std::string& flag, const std::string& text) {
-  errno = 0;
-  char* end = nullptr;
-  const double v = std::strtod(text.c_str(), &end);
-  if (text.empty() || *end != '\0' || errno != 0) {
-    throw UsageError(flag + " expects a number, got '" + text + "'");
-  }
-  return v;
-}
-
 struct Args {
   dfo::SyntheticOptions synth;
   dfo::io::SynthWriteOptions write;
@@ -83,44 +53,23 @@ Args ParseArgs(int argc, char** argv) {
   Args args;
   const unsigned hw = std::thread::hardware_concurrency();
   args.write.num_threads = hw > 0 ? static_cast<int>(hw) : 2;
-  for (int i = 1; i < argc; ++i) {
-    std::string flag = argv[i], value;
-    const bool has_value = dfo::apps::SplitFlagValue(&flag, &value);
-    if (flag == "--help" || flag == "-h") {
-      args.help = true;
-      continue;
-    }
-    static const char* kFlags[] = {"--output", "--sequence", "--seed",    "--frames", "--width",
-                                   "--height", "--fov-deg",  "--threads", "--preview"};
-    bool known = false;
-    for (const char* f : kFlags) known = known || flag == f;
-    if (!known) throw UsageError("unknown argument '" + std::string(argv[i]) + "' (see --help)");
-    if (!has_value) {
-      if (i + 1 >= argc) throw UsageError(flag + " needs a value (see --help)");
-      value = argv[++i];
-    }
-    if (flag == "--output") {
-      if (value.empty()) throw UsageError("--output needs a non-empty folder");
-      args.write.output_dir = value;
-    } else if (flag == "--sequence") {
-      args.write.sequence = value;
-    } else if (flag == "--seed") {
-      args.synth.seed = ParseSeed(value);
-    } else if (flag == "--frames") {
-      args.synth.num_frames = static_cast<int>(ParseInt(flag, value, 1, 1000000));
-    } else if (flag == "--width") {
-      args.synth.width = static_cast<int>(ParseInt(flag, value, 16, 4096));
-    } else if (flag == "--height") {
-      args.synth.height = static_cast<int>(ParseInt(flag, value, 16, 4096));
-    } else if (flag == "--fov-deg") {
-      args.synth.horizontal_fov_deg = ParseDouble(flag, value);
-    } else if (flag == "--threads") {
-      args.write.num_threads = static_cast<int>(ParseInt(flag, value, 1, 256));
-    } else if (flag == "--preview") {
-      if (value.empty()) throw UsageError("--preview needs a file name");
-      args.preview = value;
-    }
-  }
+  const double inf = std::numeric_limits<double>::infinity();
+  dfo::apps::ArgParser parser;
+  parser.Flag("--help", &args.help, "-h")
+      .Value("--output", &args.write.output_dir)
+      .Value("--sequence", &args.write.sequence)
+      .Custom("--seed",
+              [&](const std::string& v) {
+                args.synth.seed = static_cast<uint64_t>(dfo::apps::ParseIntArgument(
+                    "--seed", v, 0, std::numeric_limits<int64_t>::max()));
+              })
+      .Int("--frames", &args.synth.num_frames, 1, 1000000)
+      .Int("--width", &args.synth.width, 16, 4096)
+      .Int("--height", &args.synth.height, 16, 4096)
+      .Number("--fov-deg", &args.synth.horizontal_fov_deg, -inf, inf)
+      .Int("--threads", &args.write.num_threads, 1, 256)
+      .Value("--preview", &args.preview);
+  parser.Parse(argc, argv);
   if (!args.help && args.write.output_dir.empty()) {
     throw UsageError("--output DIR is required (see --help)");
   }

@@ -87,36 +87,18 @@ struct Args {
 
 Args ParseArgs(int argc, char** argv) {
   Args args;
-  for (int i = 1; i < argc; ++i) {
-    std::string flag = argv[i], value;
-    const bool has_value = dfo::apps::SplitFlagValue(&flag, &value);
-    if (flag == "--help" || flag == "-h") {
-      args.help = true;
-      continue;
-    }
-    if (flag == "--resume" || flag == "--export" || flag == "--print-config") {
-      if (has_value) throw UsageError(flag + " takes no value");
-      (flag == "--resume"   ? args.resume
-       : flag == "--export" ? args.export_model
-                            : args.print_config) = true;
-      continue;
-    }
-    if (flag != "--config" && flag != "--set" && flag != "--output" && flag != "--model" &&
-        flag != "--write-depth" && flag != "--sequence") {
-      throw UsageError("unknown argument '" + std::string(argv[i]) + "'");
-    }
-    if (!has_value) {
-      if (i + 1 >= argc) throw UsageError(flag + " needs a value");
-      value = argv[++i];
-    }
-    if (value.empty()) throw UsageError(flag + " needs a non-empty value");
-    if (flag == "--config") args.config_path = value;
-    if (flag == "--set") args.overrides.push_back(value);
-    if (flag == "--output") args.output_dir = value;
-    if (flag == "--model") args.model_path = value;
-    if (flag == "--write-depth") args.write_depth_dir = value;
-    if (flag == "--sequence") args.sequence_dir = value;
-  }
+  dfo::apps::ArgParser parser;
+  parser.Flag("--help", &args.help, "-h")
+      .Flag("--resume", &args.resume)
+      .Flag("--export", &args.export_model)
+      .Flag("--print-config", &args.print_config)
+      .Value("--config", &args.config_path)
+      .Values("--set", &args.overrides)
+      .Value("--output", &args.output_dir)
+      .Value("--model", &args.model_path)
+      .Value("--write-depth", &args.write_depth_dir)
+      .Value("--sequence", &args.sequence_dir);
+  parser.Parse(argc, argv);
   return args;
 }
 

@@ -7,6 +7,7 @@
 #include <cmath>
 #include <cstdio>
 #include <cstdlib>
+#include <cstring>
 #include <filesystem>
 #include <fstream>
 #include <limits>
@@ -222,6 +223,23 @@ std::string Describe(const YAML::Node& node) {
   }
 }
 
+// " (beyond the 64-bit integer range)" / " (beyond the double range)" when `text` is a number
+// that does not fit `type`, else "": says why a number that looks like one was refused.
+std::string OutOfRangeNote(ConfigType type, const std::string& text) {
+  errno = 0;
+  char* end = nullptr;
+  if (type == ConfigType::kInt || type == ConfigType::kIntList) {
+    std::strtoll(text.c_str(), &end, 10);
+    if (errno == ERANGE && end == text.c_str() + text.size()) {
+      return " (beyond the 64-bit integer range)";
+    }
+  } else if (type == ConfigType::kDouble || type == ConfigType::kDoubleList) {
+    std::strtod(text.c_str(), &end);
+    if (errno == ERANGE && end == text.c_str() + text.size()) return " (beyond the double range)";
+  }
+  return "";
+}
+
 // Converts a YAML node to a value of `type`; on failure returns false and sets *why to
 // "expected ..., found ...".
 bool NodeToValue(const YAML::Node& node, ConfigType type, ConfigValue* out, std::string* why) {
@@ -235,7 +253,9 @@ bool NodeToValue(const YAML::Node& node, ConfigType type, ConfigValue* out, std:
       return true;
     }
     if (!node.IsScalar()) return fail(Describe(node));
-    if (!ParseElement(type, node.Scalar(), out)) return fail(Describe(node));
+    if (!ParseElement(type, node.Scalar(), out)) {
+      return fail(Describe(node) + OutOfRangeNote(type, node.Scalar()));
+    }
     return true;
   }
   if (node.IsNull()) return fail(Describe(node));
@@ -632,10 +652,18 @@ void Config::WriteYaml(const std::string& path) const {
   const auto parent = std::filesystem::path(path).parent_path();
   std::error_code ec;
   if (!parent.empty()) std::filesystem::create_directories(parent, ec);
+  errno = 0;
   std::ofstream file(path);
-  if (!file) throw InputError("cannot write configuration file " + path);
+  if (!file) {
+    throw InputError("cannot write configuration file " + path + ": " +
+                     (errno != 0 ? std::strerror(errno) : "cannot be opened for writing"));
+  }
   file << ToYaml();
-  if (!file) throw InputError("error while writing configuration file " + path);
+  file.flush();
+  if (!file) {
+    throw InputError("error while writing configuration file " + path + ": " +
+                     (errno != 0 ? std::strerror(errno) : "write failed"));
+  }
 }
 
 // ---------------------------------------------------------------------------------------------

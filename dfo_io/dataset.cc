@@ -355,13 +355,29 @@ std::vector<std::string> ListImageFiles(const std::string& folder) {
   if (!fs::is_directory(folder, ec)) throw InputError("image folder not found: " + folder);
   std::vector<std::string> files;
   for (const auto& entry : fs::directory_iterator(folder, ec)) {
-    if (!entry.is_regular_file(ec)) continue;
     std::string ext = entry.path().extension().string();
     for (char& c : ext) c = static_cast<char>(std::tolower(static_cast<unsigned char>(c)));
-    if (ext == ".png" || ext == ".jpg" || ext == ".jpeg" || ext == ".ppm" || ext == ".pgm" ||
-        ext == ".bmp" || ext == ".tif" || ext == ".tiff") {
-      files.push_back(entry.path().string());
+    if (!(ext == ".png" || ext == ".jpg" || ext == ".jpeg" || ext == ".ppm" || ext == ".pgm" ||
+          ext == ".bmp" || ext == ".tif" || ext == ".tiff")) {
+      continue;
     }
+    // A name like an image's that holds none is named, not counted as a missing frame.
+    std::error_code status_error;
+    const fs::file_status status = fs::status(entry.path(), status_error);
+    if (fs::is_directory(status)) {
+      throw InputError("image " + entry.path().string() + " is a folder, not an image file");
+    }
+    if (status_error || !fs::exists(status)) {
+      const bool link = fs::is_symlink(fs::symlink_status(entry.path(), status_error));
+      throw InputError("image " + entry.path().string() +
+                       (link ? " is a symbolic link that leads to no file (a loop or a missing "
+                               "target)"
+                             : " cannot be read: " + status_error.message()));
+    }
+    if (!fs::is_regular_file(status)) {
+      throw InputError("image " + entry.path().string() + " is not a regular file");
+    }
+    files.push_back(entry.path().string());
   }
   if (ec) throw InputError("cannot list image folder " + folder + ": " + ec.message());
   std::sort(files.begin(), files.end());

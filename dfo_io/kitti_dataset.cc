@@ -4,6 +4,7 @@
 #include <cerrno>
 #include <cmath>
 #include <cstdlib>
+#include <cstring>
 #include <filesystem>
 #include <fstream>
 #include <map>
@@ -136,8 +137,17 @@ Eigen::Vector3d ProjectionOffset(const Matrix3x4d& projection) {
 }
 
 std::vector<int64_t> ReadKittiTimes(const std::string& path) {
+  std::error_code ec;
+  if (std::filesystem::is_directory(path, ec)) {
+    throw InputError("times file " + path +
+                     " is a folder; expected a text file of times in seconds");
+  }
+  if (!std::filesystem::exists(path, ec)) throw InputError("times file not found: " + path);
+  errno = 0;
   std::ifstream file(path);
-  if (!IsFile(path) || !file) throw InputError("KITTI times file not found: " + path);
+  if (!IsFile(path) || !file) {
+    throw InputError("times file " + path + " cannot be read: " + std::strerror(errno));
+  }
   std::vector<int64_t> stamps;
   std::string line;
   int line_number = 0;

@@ -226,6 +226,22 @@ Trajectory ReadTumTrajectory(const std::string& path) {
   return trajectory;
 }
 
+TrajectoryFormat DetectTrajectoryFormat(const std::string& path, const char* what) {
+  std::ifstream in = OpenForReading(path, what);
+  std::string line;
+  std::vector<std::string> tokens;
+  for (int number = 1; std::getline(in, line); ++number) {
+    for (char& c : line) c = c == ',' ? ' ' : c;
+    if (!Tokenize(line, &tokens)) continue;
+    if (tokens.size() == 12) return TrajectoryFormat::kKitti;
+    if (tokens.size() == 8) return TrajectoryFormat::kTum;
+    throw InputError(Where(path, number) + "cannot tell the format from a line with " +
+                     std::to_string(tokens.size()) +
+                     " values, expected 12 (kitti) or 8 (tum); give --format");
+  }
+  throw InputError(std::string(what) + " file " + path + " has no pose line");
+}
+
 Trajectory ReadTrajectory(const std::string& path, TrajectoryFormat format) {
   return format == TrajectoryFormat::kKitti ? ReadKittiTrajectory(path) : ReadTumTrajectory(path);
 }

@@ -49,6 +49,11 @@ Trajectory ReadTumTrajectory(const std::string& path);
 // Reads either format.
 Trajectory ReadTrajectory(const std::string& path, TrajectoryFormat format);
 
+// The format of a trajectory file from its first pose line: 12 values KITTI, 8 TUM. Throws
+// InputError naming `what` (e.g. "ground-truth trajectory") and the file when it is missing or a
+// folder, or naming the line when it tells neither, or when the file has no pose line.
+TrajectoryFormat DetectTrajectoryFormat(const std::string& path, const char* what);
+
 // Reads a times file (KITTI `times.txt`): one time in seconds per line (blank and '#' lines
 // skipped), returned in nanoseconds. Errors name file and line.
 std::vector<int64_t> ReadTimestamps(const std::string& path);

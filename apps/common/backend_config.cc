@@ -26,7 +26,7 @@ KeyframeOptions KeyframeOptionsFromConfig(const io::Config& config) {
   o.min_inlier_ratio = config.GetDouble("keyframe.min_inlier_ratio");
   o.min_interval = config.GetInt("keyframe.min_interval");
   o.max_interval = config.GetInt("keyframe.max_interval");
-  o.Check();
+  CheckInConfigTerms(config, [&] { o.Check(); });
   return o;
 }
 
@@ -70,7 +70,7 @@ WindowOptions WindowOptionsFromConfig(const io::Config& config) {
     o.num_threads = 1;
     o.max_solver_time_s = kDeterministicSolverTimeS;
   }
-  o.Check();
+  CheckInConfigTerms(config, [&] { o.Check(); });
   return o;
 }
 
@@ -87,7 +87,7 @@ TrackingDepthOptions TrackingDepthOptionsFromConfig(const io::Config& config) {
   o.initial_depth_scale = config.GetString("window.initial_depth_scale");
   o.source_scale = config.GetString("window.source_scale");
   o.rescale_source_steps = config.GetBool("window.rescale_source_steps");
-  o.Check();
+  CheckInConfigTerms(config, [&] { o.Check(); });
   return o;
 }
 
@@ -101,7 +101,7 @@ KeyframeStereoOptions KeyframeStereoOptionsFromConfig(const io::Config& config) 
   o.uniqueness = config.GetDouble("stereo.uniqueness");
   o.max_source_ratio = config.GetDouble("stereo.max_source_ratio");
   o.num_threads = ThreadsFromConfig(config);  // the sweep's result does not depend on it
-  o.Check();
+  CheckInConfigTerms(config, [&] { o.Check(); });
   return o;
 }
 
@@ -116,7 +116,7 @@ OdometryOptions OdometryOptionsFromConfig(const io::Config& config) {
   // solve finishes (OdometryOptions::backend_thread); with it on the window's depth they do.
   o.backend_thread = config.GetBool("run.backend_thread") &&
                      (!config.GetBool("run.deterministic") || o.tracking.depth == "source");
-  o.Check();
+  CheckInConfigTerms(config, [&] { o.Check(); });
   return o;
 }
 

@@ -13,15 +13,6 @@
 
 namespace dfo::apps {
 
-bool SplitFlagValue(std::string* flag, std::string* value) {
-  value->clear();
-  const size_t eq = flag->find('=');
-  if (flag->rfind("--", 0) != 0 || eq == std::string::npos) return false;
-  *value = flag->substr(eq + 1);
-  flag->resize(eq);
-  return true;
-}
-
 namespace {
 
 // Lines that Ceres or LibTorch log through glog: "<program>: ceres warning (file.cc:12) <text>"

@@ -1,7 +1,9 @@
 #include "apps/common/evaluation.h"
 
+#include <algorithm>
 #include <cmath>
 #include <cstdio>
+#include <limits>
 
 namespace dfo::apps {
 
@@ -47,6 +49,62 @@ TrajectoryEvaluation EvaluateTrajectory(const Trajectory& ground_truth, const Tr
   return e;
 }
 
+namespace {
+
+// RMS distance of the positions from their centroid.
+double Spread(const Trajectory& t) {
+  if (t.empty()) return 0.0;
+  Eigen::Vector3d centroid = Eigen::Vector3d::Zero();
+  for (size_t i = 0; i < t.size(); ++i) centroid += t[i].world_from_cam.translation();
+  centroid /= static_cast<double>(t.size());
+  double sum = 0.0;
+  for (size_t i = 0; i < t.size(); ++i) {
+    sum += (t[i].world_from_cam.translation() - centroid).squaredNorm();
+  }
+  return std::sqrt(sum / static_cast<double>(t.size()));
+}
+
+// 1 - ATE rmse^2 / spread^2: the share of the ground truth's spread the aligned estimate explains.
+double ExplainedSpread(const TrajectoryEvaluation& e) {
+  const double spread = Spread(e.ground_truth);
+  if (!(spread > 0.0)) return std::numeric_limits<double>::quiet_NaN();
+  return 1.0 - (e.ate.stats.rmse * e.ate.stats.rmse) / (spread * spread);
+}
+
+}  // namespace
+
+std::vector<std::string> EvaluationWarnings(const TrajectoryEvaluation& e) {
+  std::vector<std::string> warnings;
+  const double explained = ExplainedSpread(e);
+  if (std::isfinite(explained) && explained < kMinExplainedSpread) {
+    warnings.push_back("degenerate alignment: the aligned estimate explains " +
+                       FormatFixed(100.0 * std::max(explained, 0.0), 0) +
+                       " % of the ground truth's spread (ATE rmse " +
+                       FormatFixed(e.ate.stats.rmse, 4) + " against a spread of " +
+                       FormatFixed(Spread(e.ground_truth), 4) + ", " +
+                       AlignmentTypeName(e.options.alignment) + " scale " +
+                       FormatScale(e.alignment.transform.scale, 4) + ", estimated path " +
+                       FormatScale(e.alignment.aligned_estimate.PathLength() /
+                                       std::max(e.alignment.transform.scale, 1e-300),
+                                   4) +
+                       "): an estimate that barely moves or moves unlike the truth; its figures "
+                       "say little");
+  }
+  const size_t used = e.ground_truth.size();
+  if (e.num_est_poses > 0 && used < kMinPoseShare * static_cast<double>(e.num_est_poses)) {
+    warnings.push_back("the alignment rests on " + std::to_string(used) + " of the " +
+                       std::to_string(e.num_est_poses) +
+                       " estimated poses (the others have no ground truth)");
+  }
+  if (e.num_tracked_poses > 0 && e.num_tracked_poses < kMinPoseShare * static_cast<double>(used)) {
+    warnings.push_back("only " + std::to_string(e.num_tracked_poses) + " of the " +
+                       std::to_string(used) +
+                       " evaluated poses were tracked (the others are lost frames holding the "
+                       "last good pose)");
+  }
+  return warnings;
+}
+
 io::JsonValue EvaluationToJson(const TrajectoryEvaluation& e) {
   io::JsonValue out = io::JsonValue::Object();
   out.Set("num_poses", static_cast<int64_t>(e.ground_truth.size()));
@@ -89,6 +147,10 @@ io::JsonValue EvaluationToJson(const TrajectoryEvaluation& e) {
   out.Set("step_scale_min", e.step_scale.min);
   out.Set("step_scale_max", e.step_scale.max);
   out.Set("step_scale_ratios", array(e.step_scale.ratios));
+  out.Set("explained_spread", ExplainedSpread(e));
+  io::JsonValue warnings = io::JsonValue::Array();
+  for (const std::string& w : EvaluationWarnings(e)) warnings.Push(w);
+  out.Set("warnings", std::move(warnings));
   return out;
 }
 

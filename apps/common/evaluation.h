@@ -11,7 +11,8 @@
 //   rpe_rot_mean_deg, kitti_num_segments, kitti_t_rel_pct, kitti_r_rel_deg_per_100m,
 //   snippet_num, snippet_ate_mean, snippet_ate_std, scale_drift_segment_m, scale_drift_log_std,
 //   scale_drift_min, scale_drift_max, scale_drift_ratios (50 m stretches), step_scale_frames,
-//   step_scale_log_std, step_scale_min, step_scale_max, step_scale_ratios (20-frame stretches)
+//   step_scale_log_std, step_scale_min, step_scale_max, step_scale_ratios (20-frame stretches),
+//   explained_spread (1 - ATE rmse^2 / the ground truth's spread^2), warnings (EvaluationWarnings)
 #ifndef DFO_APPS_COMMON_EVALUATION_H_
 #define DFO_APPS_COMMON_EVALUATION_H_
 
@@ -49,7 +50,23 @@ struct TrajectoryEvaluation {
   ScaleDriftResult scale_drift;   // 50 m stretches
   ScaleDriftResult step_scale;    // 20-frame stretches (ComputeStepScale)
   double gt_path_length_m = 0.0;  // length of the ground-truth path (world units)
+  // Poses of the estimate that were tracked (dfo_run: frames not lost; lost frames hold the last
+  // good pose); 0 = not known (dfo_eval).
+  size_t num_tracked_poses = 0;
 };
+
+// What makes an evaluation's figures mean less than they seem, one sentence each (dfo_eval and
+// dfo_run print them on stderr; EvaluationToJson writes them as "warnings"):
+// - a degenerate alignment: the aligned estimate explains less than kMinExplainedSpread of the
+//   ground truth's spread (1 - ATE rmse^2 / spread^2, the spread being the RMS distance of the
+//   ground-truth positions from their centroid). An estimate that barely moves, or moves
+//   unrelated to the truth, is then fitted by a scale that can take any value (40 frames of noise:
+//   a path of 4e-6 m, Sim3 scale 2.4e7, ATE 4.61 m) and its ATE says nothing about a motion;
+// - an alignment that rests on less than kMinPoseShare of the estimated poses (the others found
+//   no ground truth), or on poses of which less than kMinPoseShare were tracked.
+constexpr double kMinExplainedSpread = 0.5;
+constexpr double kMinPoseShare = 0.5;
+std::vector<std::string> EvaluationWarnings(const TrajectoryEvaluation& evaluation);
 
 // Aligns `estimate` onto `ground_truth` (already associated: equal sizes) and computes every
 // metric on the aligned estimate. Throws InputError on different sizes, on degenerate or

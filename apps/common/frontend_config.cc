@@ -48,8 +48,25 @@ FrontendOptions FrontendOptionsFromConfig(const io::Config& config, bool dataset
   r.max_interval = config.GetInt("reference.max_interval");
 
   o.num_threads = ThreadsFromConfig(config);
-  o.Check();
+  CheckInConfigTerms(config, [&] { o.Check(); });
   return o;
+}
+
+void CheckInConfigTerms(const io::Config& config, const std::function<void()>& check) {
+  try {
+    check();
+  } catch (const ConfigError& e) {
+    const std::string message = e.what();
+    const std::string key = message.substr(0, message.find(' '));
+    // The library nests sections ("frontend.tracker.", "odometry.window."): the configuration's
+    // key is the longest tail of the path that the schema declares.
+    for (size_t at = 0; at != std::string::npos; at = key.find('.', at + 1)) {
+      const std::string tail = at == 0 ? key : key.substr(at + 1);
+      if (config.schema().Find(tail) == nullptr) continue;
+      throw ConfigError(tail + message.substr(key.size()) + " (" + config.Source(tail) + ")");
+    }
+    throw;
+  }
 }
 
 }  // namespace dfo::apps

@@ -4,6 +4,8 @@
 #ifndef DFO_APPS_COMMON_FRONTEND_CONFIG_H_
 #define DFO_APPS_COMMON_FRONTEND_CONFIG_H_
 
+#include <functional>
+
 #include "dfo_frontend/frontend.h"
 #include "dfo_io/config.h"
 
@@ -17,6 +19,12 @@ namespace dfo::apps {
 // frontend.depth = auto becomes "gt" when `dataset_has_depth` (the dataset has depth maps), else
 // "learned".
 FrontendOptions FrontendOptionsFromConfig(const io::Config& config, bool dataset_has_depth = true);
+
+// Runs an options struct's `check` (its Check()); a ConfigError it throws is rethrown with the key
+// as the configuration spells it (the library's "frontend.tracker.max_rmse_ok" is the key
+// tracker.max_rmse_ok) and where the value came from: "(--set)", "(configs/my.yaml:12)" or
+// "(default)".
+void CheckInConfigTerms(const io::Config& config, const std::function<void()>& check);
 
 // The thread count `run.threads` asks for (0 = all hardware threads, at least 1).
 int ThreadsFromConfig(const io::Config& config);

@@ -274,6 +274,13 @@ RunEvaluation EvaluateEstimate(const SequenceRunResult& result, const Trajectory
     TrajectoryEvaluationOptions sim3;
     sim3.alignment = AlignmentType::kSim3;  // monocular: the scale is arbitrary (evo_ape -as)
     e.sim3 = EvaluateTrajectory(gt, est, sim3);
+    // What the alignment rests on: every processed frame is an estimated pose; those with ground
+    // truth are evaluated, and of those the tracked ones carry a motion (EvaluationWarnings).
+    e.sim3.num_est_poses = result.frames.size();
+    e.sim3.num_tracked_poses = 0;
+    for (const FrameRecord& f : result.frames) {
+      if (f.ground_truth && f.tracked.status != TrackingStatus::kLost) ++e.sim3.num_tracked_poses;
+    }
     TrajectoryAlignmentOptions se3;
     se3.type = AlignmentType::kSe3;  // metric-scale view of the same estimate (evo_ape -a)
     e.ate_rmse_se3 = ComputeAte(gt, AlignTrajectory(est, gt, se3).aligned_estimate).stats.rmse;

@@ -12,75 +12,113 @@
 #include <cstdio>
 #include <exception>
 #include <filesystem>
+#include <limits>
 #include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
 #include <string>
 #include <vector>
 
+#include "apps/common/args.h"
+#include "apps/common/cli.h"
 #include "dfo_backend/odometry.h"
 #include "dfo_frontend/learned/learned_sources.h"
 
+namespace {
+
+struct Args {
+  std::string image_dir;
+  double fx = 0, fy = 0, cx = 0, cy = 0;
+  std::string model = "models/default.dfo";
+  bool help = false;
+};
+
+// The command line, with dfo's parser (apps/common/args.h): every number in full ("247.9x" and
+// "abc" are refused, naming the argument), focal lengths > 0; exit status 2 for a mistake.
+Args ParseArgs(int argc, char** argv) {
+  Args args;
+  std::string fx, fy, cx, cy;
+  dfo::apps::ArgParser parser;
+  parser.Flag("--help", &args.help, "-h")
+      .Positional("IMAGE_DIR", &args.image_dir)
+      .Positional("FX", &fx)
+      .Positional("FY", &fy)
+      .Positional("CX", &cx)
+      .Positional("CY", &cy)
+      .Positional("MODEL", &args.model, /*required=*/false);
+  parser.Parse(argc, argv);
+  if (args.help) return args;
+  const double inf = std::numeric_limits<double>::infinity();
+  args.fx = dfo::apps::ParseNumberArgument("FX", fx, -inf, inf);
+  args.fy = dfo::apps::ParseNumberArgument("FY", fy, -inf, inf);
+  args.cx = dfo::apps::ParseNumberArgument("CX", cx, -inf, inf);
+  args.cy = dfo::apps::ParseNumberArgument("CY", cy, -inf, inf);
+  if (!(args.fx > 0.0)) throw dfo::apps::UsageError("FX: " + fx + " is not a focal length (> 0)");
+  if (!(args.fy > 0.0)) throw dfo::apps::UsageError("FY: " + fy + " is not a focal length (> 0)");
+  return args;
+}
+
+int Run(const Args& args) {
+  // The images, sorted by name.
+  std::error_code ec;
+  if (!std::filesystem::is_directory(args.image_dir, ec)) {
+    throw dfo::InputError("IMAGE_DIR " + args.image_dir + " is not a folder");
+  }
+  std::vector<std::string> paths;
+  for (const auto& entry : std::filesystem::directory_iterator(args.image_dir)) {
+    const std::string ext = entry.path().extension().string();
+    if (ext == ".png" || ext == ".jpg" || ext == ".jpeg") paths.push_back(entry.path().string());
+  }
+  std::sort(paths.begin(), paths.end());
+  if (paths.empty()) throw dfo::InputError("no .png/.jpg images in " + args.image_dir);
+
+  // The depth network; dfo's hand-made features and default keyframe and window settings.
+  dfo::LearnedModelOptions model_options;
+  model_options.model_path = args.model;
+  const std::shared_ptr<dfo::LearnedModel> model = dfo::LoadLearnedModel(model_options);
+  const int width = model->info().input_width, height = model->info().input_height;
+  dfo::FrontendOptions frontend_options;
+  frontend_options.depth = "learned";
+  frontend_options.reference.policy = "external";  // the keyframe manager picks keyframes
+  dfo::OdometryOptions options;                    // windowed, tracking against the window
+  dfo::Odometry odometry(frontend_options, options, nullptr, dfo::MakeLearnedDepthSource(model));
+
+  for (size_t i = 0; i < paths.size(); ++i) {
+    const cv::Mat gray = cv::imread(paths[i], cv::IMREAD_GRAYSCALE);
+    if (gray.empty()) throw dfo::InputError("cannot read image " + paths[i]);
+    const double sx = double(width) / gray.cols, sy = double(height) / gray.rows;
+    cv::Mat resized;
+    cv::resize(gray, resized, cv::Size(width, height), 0, 0, cv::INTER_AREA);
+    dfo::Frame frame;
+    frame.index = static_cast<int>(i);
+    frame.timestamp_ns = static_cast<int64_t>(i) * 100000000;  // 10 Hz
+    // Pixel centres at integers: the intrinsics scale about the image corner.
+    frame.camera = dfo::PinholeCamera(args.fx * sx, args.fy * sy, (args.cx + 0.5) * sx - 0.5,
+                                      (args.cy + 0.5) * sy - 0.5, width, height);
+    frame.image = dfo::ImageU8(width, height, 1);
+    for (int y = 0; y < height; ++y) {
+      std::copy_n(resized.ptr<uint8_t>(y), width, frame.image.Row(y));
+    }
+
+    const dfo::OdometryFrame out = odometry.Process(frame);
+    const dfo::SE3d& pose = out.windowed_world_from_cam;
+    const Eigen::Quaterniond q = pose.quaternion();
+    std::printf("%d %s %.6f %.6f %.6f %.6f %.6f %.6f %.6f\n", frame.index,
+                dfo::TrackingStatusName(out.tracked.status), pose.translation().x(),
+                pose.translation().y(), pose.translation().z(), q.x(), q.y(), q.z(), q.w());
+  }
+  std::fprintf(stderr, "%zu frames, %zu keyframes\n", paths.size(), odometry.keyframes().size());
+  return 0;
+}
+
+}  // namespace
+
 int main(int argc, char** argv) {
-  if (argc < 6) {
-    std::fprintf(stderr, "usage: %s IMAGE_DIR FX FY CX CY [MODEL]\n", argv[0]);
-    return 2;
-  }
-  try {
-    // The images, sorted by name.
-    std::vector<std::string> paths;
-    for (const auto& entry : std::filesystem::directory_iterator(argv[1])) {
-      const std::string ext = entry.path().extension().string();
-      if (ext == ".png" || ext == ".jpg" || ext == ".jpeg") paths.push_back(entry.path().string());
+  return dfo::apps::RunMain("dfo_example", [&] {
+    const Args args = ParseArgs(argc, argv);
+    if (args.help) {
+      std::printf("usage: dfo_example IMAGE_DIR FX FY CX CY [MODEL]\n");
+      return 0;
     }
-    std::sort(paths.begin(), paths.end());
-    if (paths.empty()) {
-      std::fprintf(stderr, "no .png/.jpg images in %s\n", argv[1]);
-      return 1;
-    }
-
-    // The depth network; dfo's hand-made features and default keyframe and window settings.
-    dfo::LearnedModelOptions model_options;
-    model_options.model_path = argc > 6 ? argv[6] : "models/default.dfo";
-    const std::shared_ptr<dfo::LearnedModel> model = dfo::LoadLearnedModel(model_options);
-    const int width = model->info().input_width, height = model->info().input_height;
-    dfo::FrontendOptions frontend_options;
-    frontend_options.depth = "learned";
-    frontend_options.reference.policy = "external";  // the keyframe manager picks keyframes
-    dfo::OdometryOptions options;                    // windowed, tracking against the window
-    dfo::Odometry odometry(frontend_options, options, nullptr, dfo::MakeLearnedDepthSource(model));
-
-    for (size_t i = 0; i < paths.size(); ++i) {
-      const cv::Mat gray = cv::imread(paths[i], cv::IMREAD_GRAYSCALE);
-      if (gray.empty()) {
-        std::fprintf(stderr, "cannot read %s\n", paths[i].c_str());
-        return 1;
-      }
-      const double sx = double(width) / gray.cols, sy = double(height) / gray.rows;
-      cv::Mat resized;
-      cv::resize(gray, resized, cv::Size(width, height), 0, 0, cv::INTER_AREA);
-      dfo::Frame frame;
-      frame.index = static_cast<int>(i);
-      frame.timestamp_ns = static_cast<int64_t>(i) * 100000000;  // 10 Hz
-      // Pixel centres at integers: the intrinsics scale about the image corner.
-      frame.camera = dfo::PinholeCamera(std::stod(argv[2]) * sx, std::stod(argv[3]) * sy,
-                                        (std::stod(argv[4]) + 0.5) * sx - 0.5,
-                                        (std::stod(argv[5]) + 0.5) * sy - 0.5, width, height);
-      frame.image = dfo::ImageU8(width, height, 1);
-      for (int y = 0; y < height; ++y) {
-        std::copy_n(resized.ptr<uint8_t>(y), width, frame.image.Row(y));
-      }
-
-      const dfo::OdometryFrame out = odometry.Process(frame);
-      const dfo::SE3d& pose = out.windowed_world_from_cam;
-      const Eigen::Quaterniond q = pose.quaternion();
-      std::printf("%d %s %.6f %.6f %.6f %.6f %.6f %.6f %.6f\n", frame.index,
-                  dfo::TrackingStatusName(out.tracked.status), pose.translation().x(),
-                  pose.translation().y(), pose.translation().z(), q.x(), q.y(), q.z(), q.w());
-    }
-    std::fprintf(stderr, "%zu frames, %zu keyframes\n", paths.size(), odometry.keyframes().size());
-    return 0;
-  } catch (const std::exception& e) {
-    std::fprintf(stderr, "error: %s\n", e.what());
-    return 1;
-  }
+    return Run(args);
+  });
 }

@@ -1,6 +1,9 @@
 #include "dfo_io/lcm/publisher.h"
 
+#include <cerrno>
 #include <chrono>
+#include <cstring>
+#include <filesystem>
 #include <lcm/lcm-cpp.hpp>
 
 #include "dfo_core/error.h"
@@ -49,10 +52,20 @@ LcmPublisher::LcmPublisher(const LcmPublisherOptions& options)
     if (!impl_->lcm->good()) throw InputError(LcmUrlOpenError(options_.url));
   }
   if (!options_.log_path.empty()) {
+    std::error_code ec;
+    if (std::filesystem::is_directory(options_.log_path, ec)) {
+      throw InputError("the LCM event log " + options_.log_path +
+                       " (lcm.log_path) is a folder; expected a file name");
+    }
+    errno = 0;
     impl_->log = std::make_unique<lcm::LogFile>(options_.log_path, "w");
     if (!impl_->log->good()) {
+      // LibLCM opens the file with fopen: errno holds the system's reason.
+      const int reason = errno;
       throw InputError("cannot create the LCM event log " + options_.log_path +
-                       " (lcm.log_path): does its folder exist, is it writable?");
+                       " (lcm.log_path): " +
+                       (reason != 0 ? std::string(std::strerror(reason))
+                                    : std::string("its folder missing or not writable?")));
     }
   }
 }

@@ -70,16 +70,74 @@ TEST(DfoEval, CommandLineMistakesAreOneClearLine) {
   const std::string files = " --gt " + dir + "/gt.txt --est " + dir + "/est.txt";
   ExpectCleanFailure(RunEval(""), "no command");
   ExpectCleanFailure(RunEval("trajectory"), "unknown command 'trajectory'");
-  ExpectCleanFailure(RunEval("traj" + files + " --bogus"), "unknown option '--bogus'");
-  ExpectCleanFailure(RunEval("traj" + files + " --delta"), "option --delta needs a value");
-  ExpectCleanFailure(RunEval("traj" + files + " --delta abc"), "'abc' is not a number");
-  ExpectCleanFailure(RunEval("traj --gt " + dir + "/gt.txt"), "option --est is required");
+  ExpectCleanFailure(RunEval("traj" + files + " --bogus"), "unknown argument '--bogus'");
+  ExpectCleanFailure(RunEval("traj" + files + " --delta"), "--delta needs a value");
+  ExpectCleanFailure(RunEval("traj" + files + " --delta abc"),
+                     "--delta: 'abc' is not a (finite) number");
+  ExpectCleanFailure(RunEval("traj --gt " + dir + "/gt.txt"), "--est is required");
   ExpectCleanFailure(RunEval("traj" + files + " --align affine"), "affine");
   ExpectCleanFailure(RunEval("traj" + files + " --format euroc"), "euroc");
   ExpectCleanFailure(RunEval("traj" + files + " --delta-unit s"), "--delta-unit 's'");
   ExpectCleanFailure(RunEval("traj --gt " + dir + "/missing.txt --est " + dir + "/est.txt"),
                      "missing.txt");
-  ExpectCleanFailure(RunEval("depth --gt " + dir), "option --pred is required");
+  ExpectCleanFailure(RunEval("depth --gt " + dir), "--pred is required");
+}
+
+// A folder given as either trajectory is named as a folder.
+TEST(DfoEval, AFolderGivenAsATrajectoryIsNamedAsOne) {
+  const std::string dir = test::MakeTempDir("dfo_eval_folder");
+  WriteScaledPair(dir, 20);
+  ExpectCleanFailure(RunEval("traj --gt " + dir + " --est " + dir + "/est.txt"),
+                     "ground-truth trajectory file " + dir + " is a folder");
+  ExpectCleanFailure(RunEval("traj --gt " + dir + "/gt.txt --est " + dir), dir + " is a folder");
+}
+
+// An estimate that barely moves (noise of 1e-6 about one point) aligns at an absurd scale: its
+// figures are computed but flagged, in the JSON and on stderr; a good estimate has no warning.
+TEST(DfoEval, DegenerateAlignmentIsFlagged) {
+  const std::string dir = test::MakeTempDir("dfo_eval_degenerate");
+  WriteScaledPair(dir, 40);
+  const Trajectory gt = io::ReadKittiTrajectory(dir + "/gt.txt");
+  Trajectory still;
+  for (size_t i = 0; i < gt.size(); ++i) {
+    const Eigen::Vector3d jitter(1e-6 * std::sin(7.0 * i), 1e-6 * std::cos(3.0 * i),
+                                 1e-6 * std::sin(5.0 * i + 1.0));
+    still.Add(gt[i].timestamp_ns, SE3d(gt[i].world_from_cam.so3(), jitter));
+  }
+  io::WriteKittiTrajectory(dir + "/still.txt", still);
+  const CommandResult r =
+      RunEval("traj --json --gt " + dir + "/gt.txt --est " + dir + "/still.txt");
+  ASSERT_EQ(r.status, 0) << r.err;
+  EXPECT_NE(r.err.find("dfo_eval traj: warning: degenerate alignment"), std::string::npos) << r.err;
+  const io::JsonValue j = io::ParseJson(r.out);
+  ASSERT_EQ(j["warnings"].size(), 1u) << r.out;
+  EXPECT_LT(j["explained_spread"].AsNumber(), 0.5);
+  const CommandResult good =
+      RunEval("traj --json --gt " + dir + "/gt.txt --est " + dir + "/est.txt");
+  ASSERT_EQ(good.status, 0) << good.err;
+  EXPECT_TRUE(good.err.empty()) << good.err;
+  EXPECT_EQ(io::ParseJson(good.out)["warnings"].size(), 0u);
+  EXPECT_GT(io::ParseJson(good.out)["explained_spread"].AsNumber(), 0.999);
+}
+
+// TUM trajectories associated by time stamp: an alignment on a third of the estimate is flagged.
+TEST(DfoEval, AlignmentOnASmallShareOfThePosesIsFlagged) {
+  const std::string dir = test::MakeTempDir("dfo_eval_share");
+  WriteScaledPair(dir, 60);
+  const Trajectory gt = io::ReadKittiTrajectory(dir + "/gt.txt");
+  const Trajectory est = io::ReadKittiTrajectory(dir + "/est.txt");
+  Trajectory gt_part, est_shifted;
+  for (size_t i = 0; i < gt.size(); ++i) {
+    if (i < 20) gt_part.Add(gt[i].timestamp_ns, gt[i].world_from_cam);
+    est_shifted.Add(est[i].timestamp_ns, est[i].world_from_cam);
+  }
+  io::WriteTumTrajectory(dir + "/gt_part.txt", gt_part);
+  io::WriteTumTrajectory(dir + "/est_all.txt", est_shifted);
+  const CommandResult r =
+      RunEval("traj --json --gt " + dir + "/gt_part.txt --est " + dir + "/est_all.txt");
+  ASSERT_EQ(r.status, 0) << r.err;
+  EXPECT_NE(r.err.find("the alignment rests on 20 of the 60 estimated poses"), std::string::npos)
+      << r.err;
 }
 
 TEST(DfoEval, KittiCountMismatchAndBadLinesAreClearErrors) {

@@ -97,6 +97,46 @@ TEST(DfoRun, CommandLineMistakesAreOneLine) {
   ExpectOneLineError(RunDfoRun(""), {"dataset.path is empty"});
 }
 
+// Frames of random noise with true depth: whatever the tracker makes of them (with the demo's
+// settings they are lost), no evaluation reports an ATE that looks like one of a motion: there is
+// none (with the reason), or it is flagged as degenerate (stderr and summary.json).
+TEST(DfoRun, ANoiseRunsDegenerateAlignmentIsFlagged) {
+  constexpr int kNoiseFrames = 40;
+  const std::string root =
+      test::CopyOfSyntheticSequence(DFO_SYNTH_EXE, kNoiseFrames, "dfo_run_noise");
+  const std::string out = test::MakeTempDir("dfo_run_noise_out") + "/run";
+  std::mt19937 rng(3);
+  std::uniform_int_distribution<int> grey(0, 255);
+  for (int i = 0; i < kNoiseFrames; ++i) {
+    const ImageU8 frame = io::ReadGray(FramePng(root, "image_0", i));
+    ImageU8 noise(frame.width(), frame.height(), 1);
+    for (int y = 0; y < noise.height(); ++y) {
+      for (int x = 0; x < noise.width(); ++x) noise.Row(y)[x] = static_cast<uint8_t>(grey(rng));
+    }
+    io::WriteImage(FramePng(root, "image_0", i), noise);
+  }
+  const CommandResult r = RunDfoRun(RunArgs(root, out) + " --set run.progress=none");
+  ASSERT_EQ(r.status, 0) << r.err;
+  const io::JsonValue summary = ReadSummary(out);
+  for (const char* which : {"frontend", "windowed"}) {
+    if (summary[which].IsNull()) {  // no evaluation at all: its note says why
+      EXPECT_FALSE(summary[std::string(which) + "_note"].AsString().empty());
+      continue;
+    }
+    const double explained = summary[which]["explained_spread"].AsNumber();
+    if (explained < 0.5) {
+      EXPECT_GE(summary[which]["warnings"].size(), 1u) << which;
+      EXPECT_NE(r.err.find(std::string("dfo_run: warning: ") + which +
+                           " trajectory: degenerate alignment"),
+                std::string::npos)
+          << r.err;
+    } else {
+      ADD_FAILURE() << which << ": noise frames explain " << explained
+                    << " of the true path's spread";
+    }
+  }
+}
+
 TEST(DfoRun, WritesEveryPromisedFile) {
   const std::string root = MakeSequence("dfo_run_files");
   const std::string out = test::MakeTempDir("dfo_run_files_out") + "/run";

@@ -191,9 +191,10 @@ TEST(DfoSynthAppTest, BadArgumentsFailWithOneLine) {
   const std::string out = test::MakeTempDir("dfo_synth_bad");
   ExpectCleanFailure(RunSynth("--output " + out + " --bogus 3"), "unknown argument '--bogus'");
   ExpectCleanFailure(RunSynth("--frames 10"), "--output DIR is required");
-  ExpectCleanFailure(RunSynth("--output " + out + " --frames 0"), "--frames expects an integer");
-  ExpectCleanFailure(RunSynth("--output " + out + " --frames ten"), "got 'ten'");
-  ExpectCleanFailure(RunSynth("--output " + out + " --seed -1"), "--seed expects");
+  ExpectCleanFailure(RunSynth("--output " + out + " --frames 0"), "--frames: 0 is out of range");
+  ExpectCleanFailure(RunSynth("--output " + out + " --frames ten"),
+                     "--frames: 'ten' is not an integer");
+  ExpectCleanFailure(RunSynth("--output " + out + " --seed -1"), "--seed: -1 is out of range");
   ExpectCleanFailure(RunSynth("--output " + out + " --fov-deg 170 --frames 1"),
                      "horizontal_fov_deg = 170");
   ExpectCleanFailure(RunSynth("--output " + out + " --sequence a/b --frames 1"),

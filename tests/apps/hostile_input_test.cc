@@ -240,6 +240,46 @@ TEST(HostileSequence, MissingImagesAndImpossibleTimesAreNamed) {
   ExpectClearError(r, {"times.txt:1", "'1e30'", "beyond the range of nanosecond time stamps"});
 }
 
+// Entries that are named like a frame or a sequence file but are none: each is named for what it
+// is, not counted as a missing frame blamed on times.txt.
+TEST(HostileSequence, FoldersAndLinkLoopsNamedLikeFilesAreNamedForWhatTheyAre) {
+  const std::string out = test::MakeTempDir("hostile_odd_entries_out");
+  std::string root = MakeSequence("hostile_folder_frame");
+  fs::remove(Frame(root, "image_0", 3));
+  fs::create_directories(Frame(root, "image_0", 3));
+  ExpectClearError(RunCommand(DFO_RUN_EXE, RunArgs(root, out)),
+                   {Frame(root, "image_0", 3), "is a folder, not an image file"});
+
+  root = MakeSequence("hostile_loop_frame");
+  fs::remove(Frame(root, "image_0", 5));
+  fs::create_symlink("000005.png", Frame(root, "image_0", 5));  // points at itself
+  ExpectClearError(RunCommand(DFO_RUN_EXE, RunArgs(root, out)),
+                   {Frame(root, "image_0", 5), "symbolic link that leads to no file"});
+
+  root = MakeSequence("hostile_folder_times");
+  fs::remove(root + "/sequences/00/times.txt");
+  fs::create_directories(root + "/sequences/00/times.txt");
+  ExpectClearError(RunCommand(DFO_RUN_EXE, RunArgs(root, out)),
+                   {"times file " + root + "/sequences/00/times.txt is a folder"});
+}
+
+// Configuration mistakes are named as the user wrote them: the key as the configuration spells it
+// with where the value came from, an integer beyond 64 bits as such, a folder given as a file.
+TEST(HostileConfiguration, MessagesNameTheKeyAsWrittenAndTheCause) {
+  const std::string root = MakeSequence("hostile_config_messages");
+  const std::string out = test::MakeTempDir("hostile_config_messages_out");
+  CommandResult r = RunCommand(DFO_RUN_EXE, RunArgs(root, out) + " --set tracker.max_rmse_ok=inf");
+  ExpectClearError(r, {"tracker.max_rmse_ok = inf violates", "(--set)"});
+  EXPECT_EQ(r.err.find("frontend.tracker"), std::string::npos) << r.err;
+  r = RunCommand(DFO_RUN_EXE, RunArgs(root, out) + " --set dataset.last=99999999999999999999");
+  ExpectClearError(r, {"dataset.last", "beyond the 64-bit integer range"});
+  const std::string folder = test::MakeTempDir("hostile_lcm_folder");
+  r = RunCommand(DFO_RUN_EXE, RunArgs(root, out) + " --set lcm.log_path=" + folder);
+  ExpectClearError(r, {folder + " (lcm.log_path) is a folder"});
+  r = RunCommand(DFO_RUN_EXE, RunArgs(root, out) + " --set lcm.log_path=" + folder + "/no/x.log");
+  ExpectClearError(r, {"lcm.log_path", "No such file or directory"});
+}
+
 TEST(HostileSequence, DepthMapsWithoutDepthLoseFramesAndSayWhy) {
   const std::string root = MakeSequence("hostile_zero_depth");
   for (int i = 4; i < 8; ++i) io::WriteU16(Frame(root, "depth_0", i), ImageU16(416, 128, 1));

@@ -264,7 +264,7 @@ TEST(KittiErrors, MissingFiles) {
   KittiFixture f = MakeKitti("kitti_no_times");
   fs::remove(f.seq_dir + "/times.txt");
   ExpectInputError([&] { OpenSequence(KittiOptions(f)); },
-                   {"KITTI times file not found", f.seq_dir + "/times.txt"});
+                   {"times file not found", f.seq_dir + "/times.txt"});
   f = MakeKitti("kitti_no_calib");
   fs::remove(f.seq_dir + "/calib.txt");
   ExpectInputError([&] { OpenSequence(KittiOptions(f)); },
