@@ -551,6 +551,7 @@ int RunStereoDepth(int argc, char** argv) {
   }
 
   const io::Sequence sequence = io::OpenSequence(dataset);
+  for (const std::string& w : sequence.warnings()) std::cerr << "dfo_eval: warning: " << w << "\n";
   const int count = static_cast<int>(sequence.size());
   std::pair<int, int> range = {0, count - 1};
   if (opt.Has("--frames")) range = ParseRange("--frames", opt.Get("--frames", ""));

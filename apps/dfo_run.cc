@@ -369,6 +369,16 @@ int Run(const Args& args) {
                                                                 : "the frontend")
             << " -> " << output_dir << "\n";
   if (sources.model) std::cout << "  " << apps::DescribeLearnedModel(*sources.model) << "\n";
+  // Damaged or missing video frames: the first few here, every one in summary.json.
+  constexpr size_t kInputWarningsShown = 5;
+  const std::vector<std::string>& input_warnings = sequence.warnings();
+  for (size_t i = 0; i < input_warnings.size() && i < kInputWarningsShown; ++i) {
+    std::cerr << "dfo_run: warning: " << input_warnings[i] << "\n";
+  }
+  if (input_warnings.size() > kInputWarningsShown) {
+    std::cerr << "dfo_run: warning: " << input_warnings.size() - kInputWarningsShown
+              << " more damaged or missing frames: summary.json input_warnings lists every one\n";
+  }
   if (streamer) std::cout << "  lcm: publishing on " << streamer->Describe() << "\n";
   if (!stale.empty()) {
     std::cout << "  removed " << stale.size() << " output file(s) of an earlier run from "

@@ -62,8 +62,8 @@ struct DatasetOptions {
   // ProcessingSize(native camera, processing_width, its pyramid's multiple) once the recording
   // is open (the native size is known only then). 0 = off; >= 0, not with keep_native.
   int processing_width = 0;
-  bool color = false;           // true: RGB images (KITTI image_2 when present); false: gray
-  bool depth = false;           // true: load ground-truth depth maps with the images, if any
+  bool color = false;  // true: RGB images (KITTI image_2 when present); false: gray
+  bool depth = false;  // true: load ground-truth depth maps with the images, if any
 
   // TUM RGB-D association (seconds), see tum_dataset.h.
   double tum_max_depth_diff = 0.02;         // rgb <-> depth, as TUM's associate.py (0.02 s)
@@ -166,6 +166,12 @@ class Sequence {
 
   const DatasetOptions& options() const { return options_; }
 
+  // What opening the recording found that does not stop it, one line each naming the file and the
+  // frame: video frames decoded with concealed damage (processed as decoded), frames the container
+  // announces that gave no image (missing from frames()). Empty for a sound recording.
+  const std::vector<std::string>& warnings() const { return warnings_; }
+  void set_warnings(std::vector<std::string> warnings) { warnings_ = std::move(warnings); }
+
   // The same recording loaded at another output size: options().image_width/height replaced
   // (ConfigError, as OpenSequence, when they break DatasetOptions' rules; keep_native stays as
   // it is). Nothing is read again, so a camera file given as a pipe (--set
@@ -182,6 +188,7 @@ class Sequence {
   DatasetOptions options_;
   std::shared_ptr<const Undistorter> undistorter_;
   std::shared_ptr<VideoReader> video_;
+  std::vector<std::string> warnings_;
 };
 
 // Opens the sequence described by `options` (checked first): dispatches on options.type.

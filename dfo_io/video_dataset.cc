@@ -1,7 +1,9 @@
 #include "dfo_io/video_dataset.h"
 
+#include <algorithm>
 #include <chrono>
 #include <cmath>
+#include <cstdio>
 #include <filesystem>
 #include <map>
 #include <memory>
@@ -47,6 +49,58 @@ VideoIndex CachedScan(VideoReader* reader, int max_frames) {
     if (index.complete || index.stamps_ms.size() > stored.stamps_ms.size()) stored = index;
   }
   return index;
+}
+
+std::string Seconds(double ms) {
+  if (ms < 0) return "unknown time";
+  char text[32];
+  std::snprintf(text, sizeof(text), "t = %.3f s", ms / 1000.0);
+  return text;
+}
+
+// One line per damage that touches the frames [first, last] of the video, and one for frames the
+// container announces that the scan did not find (complete scans only).
+std::vector<std::string> DamageWarnings(const VideoIndex& index, const std::string& path, int first,
+                                        int last) {
+  std::vector<std::string> out;
+  for (const VideoDamage& d : index.damage) {
+    if (d.frame >= 0) {
+      if (d.frame < first || d.frame > last) continue;
+      out.push_back("video " + path + ", frame " + std::to_string(d.frame) + " (" +
+                    Seconds(d.time_ms) +
+                    "): decoded with concealed damage, processed as decoded (" + d.cause + ")");
+    } else {
+      if (d.next_frame < first || d.next_frame > last + 1) continue;
+      const std::string where =
+          d.next_frame == 0 ? "before frame 0"
+          : d.next_frame >= static_cast<int>(index.stamps_ms.size())
+              ? "after frame " + std::to_string(d.next_frame - 1) + ", the last"
+              : "between frames " + std::to_string(d.next_frame - 1) + " and " +
+                    std::to_string(d.next_frame);
+      out.push_back("video " + path + ": " +
+                    (d.packet >= 0 ? "packet " + std::to_string(d.packet) + " (" +
+                                         Seconds(d.time_ms) + ") could not be decoded"
+                                   : "reading stopped (" + Seconds(d.time_ms) + ")") +
+                    ", no frame came of it " + where + " (" + d.cause + ")");
+    }
+  }
+  if (index.complete && index.declared_frames >= 0) {
+    const int64_t found = static_cast<int64_t>(index.stamps_ms.size()) + index.undecodable_packets;
+    const int64_t missing = index.declared_frames - found;
+    // A count from a duration is rounded and may be one frame off.
+    const int64_t tolerance =
+        index.declared_estimated ? std::max<int64_t>(1, index.declared_frames / 50) : 0;
+    if (missing > tolerance) {
+      out.push_back(
+          "video " + path + ": the container announces " +
+          (index.declared_estimated ? "about " : "") + std::to_string(index.declared_frames) +
+          " frames" + (index.declared_estimated ? " (its duration times its frame rate)" : "") +
+          ", " + std::to_string(index.stamps_ms.size()) + " were decoded and " +
+          std::to_string(index.undecodable_packets) + " could not be: " + std::to_string(missing) +
+          " are missing from the file (truncated or damaged)");
+    }
+  }
+  return out;
 }
 
 }  // namespace
@@ -127,9 +181,13 @@ Sequence OpenVideoSequence(const DatasetOptions& options) {
     frames[i].video_frame = static_cast<int>(i);
   }
   frames = SelectFrameRange(std::move(frames), options, what);
-  return Sequence(options.path, std::move(frames), camera.camera,
-                  camera.depth_scale.value_or(1000.0), options,
-                  MakeUndistorter(camera.camera, camera.lens, camera_path), std::move(reader));
+  std::vector<std::string> warnings =
+      DamageWarnings(index, options.path, frames.front().video_frame, frames.back().video_frame);
+  Sequence sequence(options.path, std::move(frames), camera.camera,
+                    camera.depth_scale.value_or(1000.0), options,
+                    MakeUndistorter(camera.camera, camera.lens, camera_path), std::move(reader));
+  sequence.set_warnings(std::move(warnings));
+  return sequence;
 }
 
 }  // namespace dfo::io

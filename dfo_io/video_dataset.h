@@ -1,14 +1,16 @@
 // A video file (dataset.type video) with a camera description.
 //
 //   <path>                 the video (mp4, mkv, avi, ...: whatever the installed FFmpeg reads,
-//                          through OpenCV's FFmpeg backend, dfo_io/video_reader.h)
+//                          through FFmpeg's libraries, dfo_io/video_reader.h)
 //   <folder>/camera.yaml   intrinsics, size and lens of the video's frames (dfo_io/camera_yaml.h),
 //                          in the video's folder; dataset.camera names another file
 //
 // Frames are the video's decoded frames in order; when the sequence is opened they are decoded
 // once to count them and read their times (up to dataset.last when it is set); the result is kept
 // for the process, keyed by path, size and modification time, so opening the same video again
-// costs nothing. The camera's width and height must equal the video's frame size.
+// costs nothing. The camera's width and height must equal the video's frame size. Damage found
+// by the scan within the selected frames (and frames the container announces that the file does
+// not hold) becomes the sequence's warnings (io::Sequence::warnings).
 //
 // Timestamps (VideoTimestampsNs):
 //  - camera.yaml's `timestamps` file when it names one: one time in seconds per frame of the

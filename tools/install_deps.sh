@@ -8,6 +8,7 @@ PACKAGES=(
   build-essential cmake ccache pkg-config make
   libeigen3-dev
   libopencv-dev
+  libavformat-dev libavcodec-dev libavutil-dev libswscale-dev  # video files (dfo_io/video_reader.cc)
   libyaml-cpp-dev
   zlib1g-dev        # CRC-32 and inflate of model archives (dfo_frontend/learned/internal/zip_archive.h)
   libceres-dev libsuitesparse-dev

@@ -131,6 +131,7 @@ SequenceRunResult RunSequence(const FrameProvider& provider, Odometry* odometry,
   SequenceRunResult result;
   result.sequence_name = provider.name();
   result.frames_in_sequence = provider.size();
+  result.input_warnings = provider.warnings();
   result.mode = odometry->options().mode;
   result.tracking = odometry->options().tracking;
   result.frames.reserve(provider.size());
@@ -407,6 +408,9 @@ io::JsonValue MakeRunSummary(const SequenceRunResult& result, const RunEvaluatio
   s.Set("mode", RunModeName(result.mode));
   s.Set("frames", static_cast<int64_t>(result.frames.size()));
   s.Set("frames_in_sequence", static_cast<int64_t>(result.frames_in_sequence));
+  io::JsonValue input_warnings = io::JsonValue::Array();
+  for (const std::string& w : result.input_warnings) input_warnings.Push(w);
+  s.Set("input_warnings", std::move(input_warnings));
   s.Set("frames_ok", result.CountStatus(TrackingStatus::kOk));
   s.Set("frames_degraded", result.CountStatus(TrackingStatus::kDegraded));
   s.Set("frames_lost", result.CountStatus(TrackingStatus::kLost));

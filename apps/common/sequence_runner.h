@@ -87,6 +87,8 @@ class FrameProvider {
   // Frame i (0 <= i < size()) at the working resolution, with depth and ground truth when the
   // source has them. Throws InputError naming the frame and the file on bad data.
   virtual io::LoadedFrame Load(size_t i) const = 0;
+  // What opening the source found that did not stop it (io::Sequence::warnings); none by default.
+  virtual std::vector<std::string> warnings() const { return {}; }
 };
 
 // Frames of an io::Sequence (not owned; must outlive the provider).
@@ -96,6 +98,7 @@ class SequenceFrameProvider : public FrameProvider {
   std::string name() const override { return sequence_.name(); }
   size_t size() const override { return sequence_.size(); }
   io::LoadedFrame Load(size_t i) const override { return sequence_.Load(i); }
+  std::vector<std::string> warnings() const override { return sequence_.warnings(); }
 
  private:
   const io::Sequence& sequence_;
@@ -165,13 +168,16 @@ struct FrameRecord {
 // Everything a run produced.
 struct SequenceRunResult {
   std::string sequence_name;
-  size_t frames_in_sequence = 0;    // frames the provider offered
+  size_t frames_in_sequence = 0;  // frames the provider offered
+  // The provider's warnings (damaged video frames, frames missing from the file); summary.json
+  // input_warnings.
+  std::vector<std::string> input_warnings;
   std::vector<FrameRecord> frames;  // frames processed, in order (all of them unless error)
   std::string error;                // what stopped the run early; "" when every frame ran
   int interrupted_signal = 0;       // the SequenceRunOptions::stop_signal that ended it, or 0
   // Stop signals received in all (set by the caller): from the second on the plots are skipped.
   int stop_signals = 0;
-  double wall_s = 0.0;              // wall time of the loop (loading included)
+  double wall_s = 0.0;  // wall time of the loop (loading included)
   RunMode mode = RunMode::kFrontend;
   TrajectoryStore poses;                  // every processed frame, relative to its keyframe
   std::vector<KeyframeRecord> keyframes;  // in order
@@ -221,6 +227,8 @@ RunEvaluation EvaluateEstimate(const SequenceRunResult& result, const Trajectory
 
 // summary.json: {
 //   "sequence", "mode" (frontend | windowed | both), "frames" (processed), "frames_in_sequence",
+//   "input_warnings" (SequenceRunResult::input_warnings: damaged or missing video frames; [] when
+//   none),
 //   "frames_ok", "frames_degraded", "frames_lost", "frames_reference" (frames with status
 //   reference), "references" (frames that became a reference),
 //   "frontend": the EvaluationToJson keys (Sim3) plus "ate_rmse_se3", "gt_path_length_m" and

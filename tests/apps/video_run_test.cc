@@ -1,8 +1,9 @@
 // dfo_run on video files (dataset.type: video), against the same frames as an image folder:
 // a lossless FFV1 video gives byte-identical trajectories, and a lossy MPEG-4 video of a real
 // sequence (the KITTI 06 extract of ../shared/data) tracks within 1.5x (+ 0.1 m) of the PNG
-// frames' Sim3 ATE. The videos are written here with OpenCV's FFmpeg backend; FFmpeg is a
-// dependency, so a codec it cannot write fails the test.
+// frames' Sim3 ATE; a damaged video runs the frames that decoded and names the others. The videos
+// are written here with OpenCV's FFmpeg backend; FFmpeg is a dependency, so a codec it cannot write
+// fails the test.
 #include <gtest/gtest.h>
 
 #include <cstdio>
@@ -107,6 +108,59 @@ TEST(VideoRun, LosslessVideoEqualsTheFolderAndLossyVideoTracksAsThePngs) {
     const double mp4 = Ate(gt, out + "/mp4/" + file);
     EXPECT_LE(mp4, factor * png + 0.1) << file << ": PNG frames " << png << " m";
   }
+}
+
+// A damaged MPEG-4 video of the synthetic street (5,000 bytes overwritten in the middle): the run
+// processes every frame that decoded, says on stderr in dfo's format which frames were damaged
+// or missing (FFmpeg's own lines never appear) and lists each in summary.json input_warnings;
+// decoded and missing frames add up to the 40 the container announces.
+TEST(VideoRun, ADamagedVideoSaysWhichFramesAreDamagedOrMissing) {
+  constexpr int kFrames = 40;
+  const std::string synthetic =
+      test::CopyOfSyntheticSequence(DFO_SYNTH_EXE, kFrames, "video_damage_run");
+  const std::string frames = synthetic + "/sequences/00/image_0";
+  std::vector<std::string> pngs;
+  for (int i = 0; i < kFrames; ++i) {
+    char name[32];
+    std::snprintf(name, sizeof(name), "/%06d.png", i);
+    pngs.push_back(frames + name);
+  }
+  // The camera from the KITTI calibration dfo_synth wrote (P0: fx 0 cx 0 0 fy cy ...).
+  std::istringstream calib(ReadFile(synthetic + "/sequences/00/calib.txt"));
+  std::string tag;
+  double p[12];
+  calib >> tag;
+  for (double& v : p) calib >> v;
+  const cv::Mat first = cv::imread(pngs.front(), cv::IMREAD_GRAYSCALE);
+  const std::string root = test::MakeTempDir("video_damage_run_input");
+  std::ofstream(root + "/camera.yaml")
+      << "width: " << first.cols << "\nheight: " << first.rows << "\nfx: " << p[0]
+      << "\nfy: " << p[5] << "\ncx: " << p[2] << "\ncy: " << p[6] << "\nfps: 10\n";
+  const std::string video = root + "/street.mp4";
+  ASSERT_TRUE(WriteVideo(pngs, video, "mp4v")) << "FFmpeg cannot write MPEG-4";
+  std::string bytes = ReadFile(video);
+  for (size_t i = 0; i < 5000; ++i) {
+    bytes[bytes.size() / 2 + i] = static_cast<char>((i * 7919) & 0xff);
+  }
+  std::ofstream(video, std::ios::binary | std::ios::trunc) << bytes;
+
+  const std::string out = test::MakeTempDir("video_damage_run_out");
+  const CommandResult r = RunDfoRun("video", video, out);
+  ASSERT_EQ(r.status, 0) << r.err;
+  EXPECT_EQ(r.err.find(" @ 0x"), std::string::npos) << "FFmpeg's own line: " << r.err;
+  EXPECT_NE(r.err.find("dfo_run: warning: video " + video), std::string::npos) << r.err;
+  const io::JsonValue summary = io::ParseJson(ReadFile(out + "/summary.json"));
+  const io::JsonValue& warnings = summary["input_warnings"];
+  ASSERT_GE(warnings.size(), 1u);
+  int missing = 0;
+  for (size_t i = 0; i < warnings.size(); ++i) {
+    const std::string w = warnings[i].AsString();
+    EXPECT_NE(w.find(video), std::string::npos) << w;
+    missing += w.find("no frame came of it") != std::string::npos ? 1 : 0;
+  }
+  const int processed = static_cast<int>(summary["frames"].AsNumber());
+  EXPECT_EQ(processed, static_cast<int>(summary["frames_in_sequence"].AsNumber()));
+  EXPECT_EQ(processed + missing, kFrames) << ::testing::PrintToString(r.err);
 }
 
 }  // namespace

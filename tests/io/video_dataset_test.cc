@@ -4,8 +4,10 @@
 
 #include <cmath>
 #include <cstdio>
+#include <cstring>
 #include <filesystem>
 #include <fstream>
+#include <iterator>
 #include <opencv2/core.hpp>
 #include <opencv2/imgproc.hpp>
 #include <opencv2/videoio.hpp>
@@ -412,6 +414,141 @@ TEST(VideoErrors, FrameThatCannotBeDecodedNamesFileAndIndex) {
   ExpectInputError([&] { seq.Validate(); }, {f.video, "frame 15"});
   // The reader recovers: earlier frames still decode.
   EXPECT_EQ(seq.LoadImage(0).vector(), f.frames[1].vector());
+}
+
+// --- Damaged and odd video
+// ------------------------------------------------------------------------
+
+constexpr int kLongFrames = 40;
+
+// 40 frames: the street's 10, four times over, grey.
+std::vector<ImageU8> LongFrames() {
+  std::vector<ImageU8> frames;
+  for (int i = 0; i < kLongFrames; ++i) frames.push_back(StreetFrames()[i % kFrames].gray);
+  return frames;
+}
+
+std::string ReadBytes(const std::string& path) {
+  std::ifstream in(path, std::ios::binary);
+  return std::string(std::istreambuf_iterator<char>(in), std::istreambuf_iterator<char>());
+}
+
+void WriteBytes(const std::string& path, const std::string& bytes) {
+  std::ofstream out(path, std::ios::binary | std::ios::trunc);
+  out.write(bytes.data(), static_cast<std::streamsize>(bytes.size()));
+}
+
+// A 40-frame MPEG-4 video with 5,000 bytes overwritten in the middle: every frame the container
+// announces is decoded or accounted for (a packet that gives no frame, frames decoded with
+// concealed damage), each named in the sequence's warnings; every frame that decoded loads.
+TEST(VideoDamage, CorruptBytesAreAccountedForFrameByFrame) {
+  const std::string dir = test::MakeTempDir("video_damage");
+  const std::string sound = dir + "/street.mp4";
+  ASSERT_TRUE(WriteVideo(sound, "mp4v", LongFrames())) << "FFmpeg cannot write MPEG-4";
+  WriteText(dir + "/camera.yaml", CameraYamlText(Street().camera(), "fps: 10\n"));
+  EXPECT_TRUE(OpenSequence(Options("video", sound, false)).warnings().empty());
+
+  std::string bytes = ReadBytes(sound);
+  for (size_t i = 0; i < 5000; ++i) {
+    bytes[bytes.size() / 2 + i] = static_cast<char>((i * 7919) & 0xff);
+  }
+  const std::string damaged = dir + "/damaged.mp4";
+  WriteBytes(damaged, bytes);
+  VideoReader reader(damaged);
+  const VideoIndex index = reader.Scan();
+  ASSERT_TRUE(index.complete);
+  EXPECT_EQ(index.declared_frames, kLongFrames);
+  EXPECT_FALSE(index.declared_estimated);
+  EXPECT_FALSE(index.damage.empty());
+  EXPECT_EQ(static_cast<int>(index.stamps_ms.size()) + index.undecodable_packets, kLongFrames);
+  for (const VideoDamage& d : index.damage) {
+    EXPECT_FALSE(d.cause.empty());
+    EXPECT_EQ(d.cause.find("0x"), std::string::npos) << "FFmpeg's context pointer: " << d.cause;
+  }
+
+  const Sequence seq = OpenSequence(Options("video", damaged, false));
+  EXPECT_EQ(seq.size(), index.stamps_ms.size());
+  ASSERT_EQ(seq.warnings().size(), index.damage.size());
+  for (size_t i = 0; i < index.damage.size(); ++i) {
+    const VideoDamage& d = index.damage[i];
+    const std::string& w = seq.warnings()[i];
+    EXPECT_NE(w.find(damaged), std::string::npos) << w;
+    EXPECT_NE(
+        w.find(d.frame >= 0 ? "frame " + std::to_string(d.frame) + " " : "no frame came of it"),
+        std::string::npos)
+        << w;
+  }
+  for (size_t i = 0; i < seq.size(); ++i) EXPECT_NO_THROW(seq.LoadImage(i)) << "frame " << i;
+  // A range that ends before the damage has no warning.
+  DatasetOptions o = Options("video", damaged, false);
+  o.last = 5;
+  EXPECT_TRUE(OpenSequence(o).warnings().empty());
+}
+
+// A video cut short: the frames before the cut are read; the container's count (or its duration
+// times its frame rate) says how many are missing. An MP4 whose index is gone cannot be opened:
+// FFmpeg's reason is in the message.
+TEST(VideoDamage, TruncatedVideoSaysHowManyFramesAreMissing) {
+  const std::string dir = test::MakeTempDir("video_truncated");
+  WriteText(dir + "/camera.yaml", CameraYamlText(Street().camera(), "fps: 10\n"));
+  const std::string mkv = dir + "/street.mkv";
+  ASSERT_TRUE(WriteVideo(mkv, "FFV1", LongFrames())) << "FFmpeg cannot write FFV1";
+  const std::string bytes = ReadBytes(mkv);
+  const std::string cut = dir + "/cut.mkv";
+  WriteBytes(cut, bytes.substr(0, bytes.size() * 6 / 10));
+  const Sequence seq = OpenSequence(Options("video", cut, false));
+  EXPECT_GT(seq.size(), 10u);
+  EXPECT_LT(seq.size(), static_cast<size_t>(kLongFrames));
+  bool counted = false;
+  for (const std::string& w : seq.warnings()) {
+    if (w.find("announces about 40 frames") != std::string::npos &&
+        w.find(std::to_string(seq.size()) + " were decoded") != std::string::npos) {
+      counted = true;
+    }
+  }
+  EXPECT_TRUE(counted) << ::testing::PrintToString(seq.warnings());
+  for (size_t i = 0; i < seq.size(); ++i) {
+    EXPECT_EQ(seq.LoadImage(i).vector(), LongFrames()[i].vector()) << "frame " << i;
+  }
+
+  const std::string mp4 = dir + "/street.mp4";
+  ASSERT_TRUE(WriteVideo(mp4, "mp4v", LongFrames()));
+  const std::string mp4_bytes = ReadBytes(mp4);
+  WriteBytes(dir + "/cut.mp4", mp4_bytes.substr(0, mp4_bytes.size() / 2));
+  ExpectInputError([&] { OpenSequence(Options("video", dir + "/cut.mp4", false)); },
+                   {"cannot open video file", dir + "/cut.mp4", "moov atom not found"});
+}
+
+// A stream whose frames change size half-way (two MJPEG streams one after the other): an error
+// naming the frame and both sizes, before any frame is processed; the frames before it can be
+// selected with dataset.last.
+TEST(VideoDamage, AFrameOfAnotherSizeIsAnErrorNamingIt) {
+  const std::string dir = test::MakeTempDir("video_sizes");
+  WriteText(dir + "/camera.yaml", CameraYamlText(Street().camera(), "fps: 10\n"));
+  std::vector<ImageU8> full, half;
+  for (int i = 0; i < 5; ++i) {
+    const ImageU8& g = StreetFrames()[i].gray;
+    full.push_back(g);
+    const cv::Mat m(g.height(), g.width(), CV_8UC1, const_cast<uint8_t*>(g.data()));
+    cv::Mat small;
+    cv::resize(m, small, cv::Size(g.width() / 2, g.height() / 2), 0, 0, cv::INTER_AREA);
+    ImageU8 out(small.cols, small.rows, 1);
+    std::memcpy(out.data(), small.data, out.size());
+    half.push_back(std::move(out));
+  }
+  ASSERT_TRUE(WriteVideo(dir + "/a.mjpeg", "MJPG", full)) << "FFmpeg cannot write MJPEG";
+  ASSERT_TRUE(WriteVideo(dir + "/b.mjpeg", "MJPG", half));
+  const std::string both = dir + "/both.mjpeg";
+  WriteBytes(both, ReadBytes(dir + "/a.mjpeg") + ReadBytes(dir + "/b.mjpeg"));
+  const std::string w = std::to_string(full[0].width()), h = std::to_string(full[0].height());
+  const std::string w2 = std::to_string(half[0].width()), h2 = std::to_string(half[0].height());
+  ExpectInputError([&] { OpenSequence(Options("video", both, false)); },
+                   {both, "frame 5", w2 + " x " + h2, w + " x " + h, "dataset.last: 4"});
+  DatasetOptions o = Options("video", both, false);
+  o.last = 4;
+  const Sequence seq = OpenSequence(o);
+  ASSERT_EQ(seq.size(), 5u);
+  for (size_t i = 0; i < seq.size(); ++i) EXPECT_NO_THROW(seq.LoadImage(i));
 }
 
 }  // namespace
