@@ -32,7 +32,9 @@
 #include "apps/common/run_stats.h"
 #include "apps/common/sequence_runner.h"
 #include "apps/learned_wiring.h"
+#include "dfo_backend/memory_estimate.h"
 #include "dfo_core/error.h"
+#include "dfo_frontend/feature_source.h"
 #include "dfo_frontend/frontend.h"
 #include "dfo_io/config.h"
 #include "dfo_io/config_schema.h"
@@ -348,6 +350,37 @@ int Run(const Args& args) {
                                   frontend_options.features == "learned");
   }
 
+  // The memory the run will need, from the sizes and options: refused before anything is written.
+  MemoryEstimateInput memory_input;
+  memory_input.width = sequence.output_width();
+  memory_input.height = sequence.output_height();
+  memory_input.feature_channels =
+      frontend_options.features == "learned" && sources.model
+          ? sources.model->info().channels.front()
+          : HandmadeFeatureSource(frontend_options.handmade).num_channels();
+  if (sources.model) {
+    const LearnedModelInfo& info = sources.model->info();
+    const bool at_model_size =
+        frontend_options.features != "learned" && config.GetBool("learned.depth_at_model_size");
+    memory_input.network_pixels =
+        at_model_size ? static_cast<int64_t>(info.input_width) * info.input_height
+                      : static_cast<int64_t>(memory_input.width) * memory_input.height;
+  }
+  const MemoryEstimate memory = EstimatePeakMemory(memory_input, odometry_options);
+  const int64_t memory_limit_mb = config.GetInt("run.memory_limit_mb");
+  if (memory_limit_mb > 0 && memory.total_mib > static_cast<double>(memory_limit_mb)) {
+    throw InputError(
+        "this run would need about " + memory.Describe() + " for " +
+        std::to_string(memory_input.width) + " x " + std::to_string(memory_input.height) +
+        " frames (dataset.image_width/image_height" +
+        (dataset.keep_native ? ", dataset.keep_native" : "") + ", window.max_keyframes " +
+        std::to_string(odometry_options.window.max_keyframes) + ", " +
+        std::to_string(memory_input.feature_channels) +
+        " feature channels), more than run.memory_limit_mb = " + std::to_string(memory_limit_mb) +
+        " (" + config.Source("run.memory_limit_mb") +
+        "): process smaller frames (dataset.processing_width), or raise run.memory_limit_mb");
+  }
+
   const std::string output_dir = config.GetString("run.output_dir");
   io::CreateFolder(output_dir, "output folder");
   // A reused folder: the outputs of an earlier run (perhaps of another run.mode) go first.
@@ -424,6 +457,7 @@ int Run(const Args& args) {
   std::signal(SIGPIPE, SIG_IGN);
   apps::SequenceRunResult result = apps::RunSequence(provider, &odometry, run_options);
   result.stop_signals = g_stop_signals.load();
+  result.memory_estimate_mib = memory.total_mib;
   if (streamer) streamer->Finish(result);
   const apps::RunOutputs outputs = apps::WriteRunOutputs(
       result, output_dir, config.GetBool("run.plot") && g_stop_signals.load() < 2);

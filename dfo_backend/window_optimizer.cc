@@ -75,17 +75,7 @@ class BlockPrefetch : public ceres::EvaluationCallback {
   std::vector<Block> blocks_;
 };
 
-// Zooms whose blurred features a keyframe keeps (WindowOptions::zoom_blur_sigma_px): 1.1, 1.2,
-// ... up to max_stretch.
-std::vector<double> ZoomLadder(double max_stretch) {
-  std::vector<double> zooms;
-  for (int i = 1; 1.0 + 0.1 * i <= max_stretch + 1e-9 && i <= 30; ++i) {
-    zooms.push_back(1.0 + 0.1 * i);
-  }
-  return zooms;
-}
-
-// Index in ZoomLadder of the largest zoom not above `zoom`; -1 below the first.
+// Index in WindowZoomLadder of the largest zoom not above `zoom`; -1 below the first.
 int ZoomIndex(const std::vector<double>& zooms, double zoom) {
   int index = -1;
   for (size_t i = 0; i < zooms.size(); ++i) {
@@ -211,6 +201,14 @@ double Quantile(std::vector<double> values, double q) {
 
 }  // namespace
 
+std::vector<double> WindowZoomLadder(double max_stretch) {
+  std::vector<double> zooms;
+  for (int i = 1; 1.0 + 0.1 * i <= max_stretch + 1e-9 && i <= 30; ++i) {
+    zooms.push_back(1.0 + 0.1 * i);
+  }
+  return zooms;
+}
+
 void WindowOptions::Check() const {
   Require(max_keyframes >= 5, "window.max_keyframes", max_keyframes, ">= 5");
   Require(pyramid_level >= 0, "window.pyramid_level", pyramid_level, ">= 0");
@@ -314,7 +312,8 @@ WindowOptimizer::WindowOptimizer(const WindowOptions& options) : options_(option
   manifold_ = std::make_unique<SE3Manifold>();
   scaled_depth_prior_ =
       options_.depth_prior_weight > 0.0 && options_.depth_prior_scale_fraction < 1.0;
-  if (options_.zoom_blur_sigma_px > 0.0) zoom_ladder_ = ZoomLadder(options_.max_patch_stretch);
+  if (options_.zoom_blur_sigma_px > 0.0)
+    zoom_ladder_ = WindowZoomLadder(options_.max_patch_stretch);
 }
 
 WindowOptimizer::~WindowOptimizer() = default;

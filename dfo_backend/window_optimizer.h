@@ -214,6 +214,10 @@ struct WindowOptions {
   void Check() const;
 };
 
+// Zooms whose blurred features each keyframe keeps when WindowOptions::zoom_blur_sigma_px > 0:
+// 1.1, 1.2, ... up to max_stretch (WindowOptions::max_patch_stretch), at most 30.
+std::vector<double> WindowZoomLadder(double max_stretch);
+
 // What one AddKeyframe did.
 struct WindowResult {
   // True when a BA ran and its result was kept; false when it failed or diverged (the state

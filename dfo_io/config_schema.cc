@@ -479,6 +479,11 @@ ConfigSchema BuildSchema() {
   s.AddBool("run.plot", true,
             "Write the trajectory pictures (frontend, windowed, both compared; top views coloured "
             "by ATE) when ground truth exists");
+  s.AddInt("run.memory_limit_mb", 4096,
+           "Largest peak memory (MiB) a run may need: dfo_run estimates it from the frame size and "
+           "the options before the first frame (dfo_backend/memory_estimate.h; summary.json "
+           "memory_estimate_mb beside peak_rss_mb) and refuses a run above it; 0 = no limit")
+      .Min(0);
 
   // Defaults mirror apps::LcmStreamOptions and io::LcmChannels (dfo_io/lcm/messages.h); a test
   // checks that they agree.

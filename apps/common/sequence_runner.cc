@@ -468,6 +468,9 @@ io::JsonValue MakeRunSummary(const SequenceRunResult& result, const RunEvaluatio
                                    : std::numeric_limits<double>::quiet_NaN());
   s.Set("wall_s", result.wall_s);
   s.Set("peak_rss_mb", PeakRssMb());
+  if (std::isfinite(result.memory_estimate_mib)) {
+    s.Set("memory_estimate_mb", result.memory_estimate_mib);
+  }
   const std::string wait_policy = OpenMpWaitPolicyAtStart();
   if (wait_policy.empty()) {
     s.Set("openmp_wait_policy", io::JsonValue());

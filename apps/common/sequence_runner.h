@@ -54,6 +54,7 @@
 #include <chrono>
 #include <cstdio>
 #include <functional>
+#include <limits>
 #include <optional>
 #include <string>
 #include <vector>
@@ -172,6 +173,9 @@ struct SequenceRunResult {
   // The provider's warnings (damaged video frames, frames missing from the file); summary.json
   // input_warnings.
   std::vector<std::string> input_warnings;
+  // The up-front estimate of the run's peak memory (dfo_backend/memory_estimate.h); NaN = none.
+  // summary.json memory_estimate_mb, beside peak_rss_mb.
+  double memory_estimate_mib = std::numeric_limits<double>::quiet_NaN();
   std::vector<FrameRecord> frames;  // frames processed, in order (all of them unless error)
   std::string error;                // what stopped the run early; "" when every frame ran
   int interrupted_signal = 0;       // the SequenceRunOptions::stop_signal that ended it, or 0
@@ -254,7 +258,8 @@ RunEvaluation EvaluateEstimate(const SequenceRunResult& result, const Trajectory
 //               "backend_per_keyframe", "ba_solve_per_keyframe",
 //               "marginalization_per_keyframe"}, each {"median", "p95", "mean", "max"} (null
 //               without a sample),
-//   "fps" (processed frames per second of wall time), "wall_s", "peak_rss_mb",
+//   "fps" (processed frames per second of wall time), "wall_s", "peak_rss_mb" (MiB),
+//   "memory_estimate_mb" (MiB, SequenceRunResult::memory_estimate_mib; absent when none),
 //   "error" (only when the run stopped early: the message) }
 io::JsonValue MakeRunSummary(const SequenceRunResult& result, const RunEvaluation& evaluation,
                              const RunEvaluation* windowed = nullptr);
