@@ -494,6 +494,42 @@ TEST(DfoRunInterrupted, ASecondSignalStillWritesEveryResult) {
   ExpectInterruptedRunComplete(out, 1);
 }
 
+// The same, repeated in a loop over a fixed schedule (tools/signal_check.sh runs it 100 times
+// each way): double SIGINTs at frames 1-12 with gaps of 0-150 ms, and coreutils timeout after
+// 1.5-2.7 s (past start-up, during the first frames). No run loses a result.
+TEST(DfoRunInterrupted, DoubleSignalsInALoopLoseNothing) {
+  const std::string dir = test::MakeTempDir("dfo_run_signal_loop");
+  const std::vector<std::string> gaps = {"", "sleep 0.01;", "sleep 0.03;", "sleep 0.07;",
+                                         "sleep 0.15;"};
+  for (int i = 0; i < 12; ++i) {
+    SCOPED_TRACE("run " + std::to_string(i));
+    const std::string out = dir + "/run_" + std::to_string(i);
+    if (i % 3 == 2) {
+      char duration[16];
+      std::snprintf(duration, sizeof(duration), "%.1f", 1.5 + 0.1 * i);
+      const CommandResult r =
+          RunCommand("sh", "-c 'timeout -s TERM " + std::string(duration) + " " +
+                               std::string(DFO_RUN_EXE) + " --config " + test::SourceDir() +
+                               "/configs/demo.yaml --set dataset.path=" + MakeLongSequence() +
+                               " --set run.progress=none --output " + out + " > " + out +
+                               ".log 2>&1; echo $?'");
+      EXPECT_EQ(std::atoi(r.out.c_str()), 124) << ReadFile(out + ".log");
+    } else {
+      const int frame = 1 + (i * 7) % 12;
+      EXPECT_EQ(
+          RunAndSignal(out, "INT", frame,
+                       gaps[static_cast<size_t>(i) % gaps.size()] + " kill -INT $p 2>/dev/null;"),
+          130)
+          << ReadFile(out + ".log");
+    }
+    const io::JsonValue summary = ReadSummary(out);
+    ExpectInterruptedRunComplete(out,
+                                 summary.Has("interrupted")
+                                     ? static_cast<int>(summary["interrupted"]["signals"].AsInt())
+                                     : 1);
+  }
+}
+
 TEST(DfoRunInterrupted, SigkillLeavesThePerFrameFilesUpToTheLastFrames) {
   const std::string out = test::MakeTempDir("dfo_run_sigkill") + "/run";
   EXPECT_EQ(RunAndSignal(out, "KILL", 20), 137);

@@ -124,7 +124,8 @@ TEST(ModelFileTest, MissingFile) {
   EXPECT_TRUE(Contains(msg, path)) << msg;
   EXPECT_TRUE(Contains(msg, "not found")) << msg;
   const std::string dir = test::MakeTempDir("model_dir");
-  EXPECT_TRUE(Contains(InputErrorOf([&] { LoadModel(dir); }), "not a regular file"));
+  EXPECT_TRUE(
+      Contains(InputErrorOf([&] { LoadModel(dir); }), "is a folder, expected a model file"));
 }
 
 TEST(ModelFileTest, FileOfAnotherFormat) {

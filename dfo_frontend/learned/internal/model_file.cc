@@ -366,7 +366,9 @@ LoadedModel LoadModel(const std::string& path) {
     throw InputError(Prefix(path) + "not found (expected a dfo model or a TorchScript file)");
   }
   if (!std::filesystem::is_regular_file(path, ec)) {
-    throw InputError(Prefix(path) + "is not a regular file");
+    throw InputError(Prefix(path) + (std::filesystem::is_directory(path, ec)
+                                         ? "is a folder, expected a model file (.dfo or .pt)"
+                                         : "is not a regular file"));
   }
   // LibTorch reads the archive without checking its CRC-32s: a file changed after it was written
   // would load. A file that is no ZIP archive at all is left to LibTorch's message below.
