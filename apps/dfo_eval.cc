@@ -552,6 +552,19 @@ int RunStereoDepth(int argc, char** argv) {
 
   const io::Sequence sequence = io::OpenSequence(dataset);
   for (const std::string& w : sequence.warnings()) std::cerr << "dfo_eval: warning: " << w << "\n";
+  // The plane sweep's cost volume holds a float per pixel and depth sample.
+  const double volume_mib = 4.0 * sweep.num_depths * sequence.output_width() *
+                            static_cast<double>(sequence.output_height()) / (1024.0 * 1024.0);
+  constexpr double kMaxVolumeMib = 2048.0;
+  if (volume_mib > kMaxVolumeMib) {
+    throw UsageError("the plane sweep's cost volume would take " +
+                     std::to_string(static_cast<long long>(std::ceil(volume_mib))) + " MiB (" +
+                     std::to_string(sweep.num_depths) + " depths (--depths) x " +
+                     std::to_string(sequence.output_width()) + " x " +
+                     std::to_string(sequence.output_height()) + " pixels (--size)), more than " +
+                     std::to_string(static_cast<int>(kMaxVolumeMib)) +
+                     " MiB: fewer depths or a smaller --size");
+  }
   const int count = static_cast<int>(sequence.size());
   std::pair<int, int> range = {0, count - 1};
   if (opt.Has("--frames")) range = ParseRange("--frames", opt.Get("--frames", ""));

@@ -21,6 +21,7 @@
 #include "dfo_frontend/learned/internal/device.h"
 #include "dfo_frontend/learned/internal/model_file.h"
 #include "dfo_frontend/learned/internal/training.h"
+#include "dfo_frontend/learned/network_options.h"
 #include "dfo_io/config.h"
 #include "dfo_io/curve_plot.h"
 #include "dfo_io/dataset.h"
@@ -357,6 +358,24 @@ int Run(const Args& args) {
   // A device this LibTorch cannot use stops the run here, before any data is read or file written
   // (the trainer checks it again).
   learned::ResolveDevice("train.device", base_options.device);
+  // Training memory grows with the input size, the widths and the batch: refused before any
+  // data is read or file written when it would exceed train.memory_limit_mb.
+  const int64_t memory_limit_mb = config.GetInt("train.memory_limit_mb");
+  const double memory_mib =
+      learned::EstimateTrainingMemoryMib(base_options.network, base_options.batch_size);
+  if (args.write_depth_dir.empty() && !args.export_model && memory_limit_mb > 0 &&
+      memory_mib > static_cast<double>(memory_limit_mb)) {
+    throw InputError("training would need about " +
+                     std::to_string(static_cast<long long>(std::ceil(memory_mib))) + " MiB for " +
+                     std::to_string(base_options.network.input_width) + " x " +
+                     std::to_string(base_options.network.input_height) +
+                     " inputs (network.input_width/input_height) in batches of " +
+                     std::to_string(base_options.batch_size) +
+                     " (train.batch_size), more than train.memory_limit_mb = " +
+                     std::to_string(memory_limit_mb) + " (" +
+                     config.Source("train.memory_limit_mb") +
+                     "): train smaller inputs or batches, or raise train.memory_limit_mb");
+  }
   const std::string dir = args.output_dir;
   const std::string checkpoint = dir + "/checkpoint.pt";
   const std::string model_path = args.model_path.empty() ? dir + "/model.dfo" : args.model_path;

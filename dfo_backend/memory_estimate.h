@@ -13,12 +13,14 @@
 //   window    max_keyframes + 1 keyframes, each with its features and depth at the window's
 //             pyramid level, its zoom-blurred copies (window.zoom_blur_sigma_px) and its coarse
 //             level (window.coarse_iterations): 4 (C (1 + zooms) + 1) bytes a pixel there;
-//   stereo    the keyframe stereo's views (stereo.views): 75 bytes a pixel each (measured);
+//   stereo    the keyframe stereo (stereo.views > 0): its cost volume, 4 bytes a pixel and depth
+//             sample (stereo.depth_samples), and 8 bytes a pixel a view (measured together: 219
+//             bytes a pixel with 3 views and 64 samples, 256 + 24 estimated);
 //   network   the activations of a network run on network_pixels pixels a frame: 220 bytes a
 //             pixel (measured with models/kitti.dfo's depth network at 416 x 128 to 1664 x 512);
 // each of these times 1.2, plus 210 MiB (dfo_run at 416 x 128 peaks at 205-220 MiB). Measured with `tools/memory_check.sh` (configs/demo.yaml,
 // configs/kitti.yaml, 416 x 128 to 3328 x 1024, 11 settings): the peak resident memory stays below
-// the estimate, which is 1.0 to 1.5 times the peak (the most for a frontend-only run and for a
+// the estimate, which is 1.1 to 1.6 times the peak (the most for a frontend-only run and for a
 // network run at the frame size).
 #ifndef DFO_BACKEND_MEMORY_ESTIMATE_H_
 #define DFO_BACKEND_MEMORY_ESTIMATE_H_

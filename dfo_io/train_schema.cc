@@ -101,9 +101,7 @@ ConfigSchema BuildTrainSchema() {
   s.AddDouble("augment.color_max", 1.1, "Upper bound of those factors").GreaterThan(0);
 
   s.AddSection("gn", "Differentiable Gauss-Newton alignment giving the training poses.");
-  s.AddInt("gn.max_points", 300, "Most patches per level (tracker.max_points)")
-      .Min(1)
-      .Max(100000);
+  s.AddInt("gn.max_points", 300, "Most patches per level (tracker.max_points)").Min(1).Max(100000);
   s.AddIntList("gn.max_iterations", {6, 6, 8, 10},
                "Unrolled iterations per level, finest first (last repeats)")
       .Min(1)
@@ -151,6 +149,11 @@ ConfigSchema BuildTrainSchema() {
   s.AddDouble("train.temperature_end", 0.1, "Gumbel-sigmoid temperature at the end").GreaterThan(0);
   s.AddInt("train.seed", 1, "Seed of weights, data order, augmentation and Gumbel noise").Min(0);
   s.AddInt("train.threads", 1, "Torch threads").Min(1).Max(64);
+  s.AddInt("train.memory_limit_mb", 4096,
+           "Largest peak memory (MiB) training may need: dfo_train estimates it from "
+           "network.input_width/input_height, the network widths and train.batch_size "
+           "(learned/network_options.h) and refuses to start above it; 0 = no limit")
+      .Min(0);
   s.AddString("train.device", "cpu",
               "Where the networks train; cuda needs a LibTorch built with CUDA (Debian's is "
               "CPU-only and refuses cuda at start-up)")

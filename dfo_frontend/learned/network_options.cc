@@ -1,5 +1,6 @@
 #include "dfo_frontend/learned/network_options.h"
 
+#include <algorithm>
 #include <cmath>
 #include <sstream>
 #include <string>
@@ -101,6 +102,27 @@ bool operator==(const NetworkOptions& a, const NetworkOptions& b) {
          a.feature_encoder_widths == b.feature_encoder_widths &&
          a.feature_decoder_widths == b.feature_decoder_widths &&
          a.reconstruction_width == b.reconstruction_width;
+}
+
+double EstimateTrainingMemoryMib(const NetworkOptions& network, int batch_size) {
+  // Feature maps per input pixel: encoder stage i at 1 / 2^(i+1) of each side, decoder stage i
+  // and output level i at 1 / 2^i, the reconstruction heads at full size.
+  double maps = network.reconstruction_width;
+  const auto add = [&maps](const std::vector<int>& widths, int first_halvings) {
+    for (size_t i = 0; i < widths.size(); ++i) {
+      maps += widths[i] / std::pow(4.0, static_cast<double>(i) + first_halvings);
+    }
+  };
+  add(network.depth_encoder_widths, 1);
+  add(network.depth_decoder_widths, 0);
+  add(network.feature_encoder_widths, 1);
+  add(network.feature_decoder_widths, 0);
+  add(network.channels, 0);
+  const double pixels =
+      static_cast<double>(network.input_width) * static_cast<double>(network.input_height);
+  constexpr double kFixedMib = 300.0, kBytesPerMap = 100.0, kMargin = 1.2;
+  return kFixedMib +
+         kMargin * kBytesPerMap * maps * pixels * std::max(1, batch_size) / (1024.0 * 1024.0);
 }
 
 }  // namespace dfo::learned

@@ -47,6 +47,14 @@ struct NetworkOptions {
   static int64_t LevelPixels(int width, int height, int level);
 };
 
+// Peak memory (MiB) of training these networks on batches of `batch_size` 3-frame snippets at
+// input_width x input_height, estimated before the first iteration (dfo_train compares it with
+// train.memory_limit_mb): 300 MiB + 1.2 x 100 bytes x W x pixels x batch_size, where W counts the
+// networks' feature maps per input pixel (each layer's width times its share of the input's
+// pixels: 70 for the default widths). Fitted to dfo_train's peak resident memory with the default
+// widths at 208 x 64 (batch 4 and 8), 416 x 128 (batch 4) and 832 x 256 (batch 2): 621-3015 MiB.
+double EstimateTrainingMemoryMib(const NetworkOptions& network, int batch_size);
+
 // Equality of every field (used to compare a model file with a configuration).
 bool operator==(const NetworkOptions& a, const NetworkOptions& b);
 inline bool operator!=(const NetworkOptions& a, const NetworkOptions& b) { return !(a == b); }

@@ -404,6 +404,10 @@ TEST(DfoEval, StereoDepthFromGroundTruthPosesMatchesTheTrueDepth) {
   ExpectCleanFailure(
       RunEval("stereo-depth --path " + data + " --sequence 00 --max-depth 1 --output " + out),
       "max_depth_m = 1");
+  // A cost volume beyond 2 GiB (4096 depths at 4096 x 4096) is refused before it is allocated.
+  ExpectCleanFailure(RunEval("stereo-depth --path " + data +
+                             " --sequence 00 --depths 4096 --size 4096x4096 --output " + out),
+                     "4096 depths (--depths) x 4096 x 4096 pixels (--size)");
   std::filesystem::remove(data + "/poses/00.txt");
   ExpectCleanFailure(
       RunEval("stereo-depth --path " + data + " --sequence 00 --frames 10-10 " + "--output " + out),

@@ -216,6 +216,24 @@ TEST_F(DfoTrainAppTest, CommandLineMistakesAreNamed) {
   EXPECT_NE(r.out.find("no checkpoint"), std::string::npos) << r.out;
 }
 
+// The largest inputs the configuration accepts (4096 x 4096) in batches of 64 would need terabytes:
+// refused before any data is read or file written, naming the estimate, the keys and the limit.
+TEST_F(DfoTrainAppTest, InputsBeyondTheMemoryLimitAreRefusedUpFront) {
+  const std::string out = test::MakeTempDir("dfo_train_memory");
+  const CommandResult r = Shell(
+      std::string(DFO_TRAIN_EXE) + " --config " + test::SourceDir() +
+      "/configs/train_default.yaml --set 'data.sequences=[" + out +
+      "/no_such_sequence]' --set network.input_width=4096 --set network.input_height=4096 --set " +
+      "train.batch_size=64 --output " + out + "/run");
+  EXPECT_EQ(r.status, 1) << r.out;
+  for (const char* part :
+       {"dfo_train: error: training would need about", "MiB", "4096 x 4096", "network.input_width",
+        "train.batch_size", "train.memory_limit_mb = 4096 (default)"}) {
+    EXPECT_NE(r.out.find(part), std::string::npos) << r.out;
+  }
+  EXPECT_FALSE(fs::exists(out + "/run"));
+}
+
 // train.device: a name other than cpu, cuda, cuda:N is a configuration error naming the key, and
 // with Debian's CPU-only LibTorch `cuda` stops dfo_train at start-up with one line saying why,
 // before any data is read or file written.
