@@ -464,6 +464,24 @@ void ExpectInterruptedRunComplete(const std::string& out, int signals) {
   }
 }
 
+// The same, with the number of signals the run counted: a second signal may come after the first
+// one's outputs were written (then it counts one).
+void ExpectInterruptedRunCompleteAfterItsSignals(const std::string& out) {
+  const io::JsonValue summary = ReadSummary(out);
+  ExpectInterruptedRunComplete(
+      out,
+      summary.Has("interrupted") ? static_cast<int>(summary["interrupted"]["signals"].AsInt()) : 1);
+}
+
+// dfo_run on the long sequence under coreutils `timeout -s TERM seconds`; its exit status.
+int RunUnderTimeout(const std::string& out, const std::string& seconds) {
+  const CommandResult r = RunCommand(
+      "sh", "-c 'timeout -s TERM " + seconds + " " + std::string(DFO_RUN_EXE) + " --config " +
+                test::SourceDir() + "/configs/demo.yaml --set dataset.path=" + MakeLongSequence() +
+                " --set run.progress=none --output " + out + " > " + out + ".log 2>&1; echo $?'");
+  return std::atoi(r.out.c_str());
+}
+
 // An impatient Ctrl-C Ctrl-C, with the second signal at several moments of the first one's
 // hand-over (right away, during the last frame, while the outputs are written), and coreutils
 // timeout (which signals the process and then its group): every result is still written.
@@ -477,20 +495,11 @@ TEST(DfoRunInterrupted, ASecondSignalStillWritesEveryResult) {
         RunAndSignal(out, "INT", 3 + static_cast<int>(i), gaps[i] + " kill -INT $p 2>/dev/null;"),
         130)
         << ReadFile(out + ".log");
-    // The second signal may come after the first one's outputs were written (then it is one).
-    const io::JsonValue summary = ReadSummary(out);
-    ExpectInterruptedRunComplete(out,
-                                 summary.Has("interrupted")
-                                     ? static_cast<int>(summary["interrupted"]["signals"].AsInt())
-                                     : 1);
+    ExpectInterruptedRunCompleteAfterItsSignals(out);
   }
   // coreutils timeout: the run is stopped during its first frames.
   const std::string out = dir + "/timeout";
-  const CommandResult r = RunCommand(
-      "sh", "-c 'timeout -s TERM 3 " + std::string(DFO_RUN_EXE) + " --config " + test::SourceDir() +
-                "/configs/demo.yaml --set dataset.path=" + MakeLongSequence() +
-                " --set run.progress=none --output " + out + " > " + out + ".log 2>&1; echo $?'");
-  EXPECT_EQ(std::atoi(r.out.c_str()), 124) << ReadFile(out + ".log");
+  EXPECT_EQ(RunUnderTimeout(out, "3"), 124) << ReadFile(out + ".log");
   ExpectInterruptedRunComplete(out, 1);
 }
 
@@ -507,13 +516,7 @@ TEST(DfoRunInterrupted, DoubleSignalsInALoopLoseNothing) {
     if (i % 3 == 2) {
       char duration[16];
       std::snprintf(duration, sizeof(duration), "%.1f", 1.5 + 0.1 * i);
-      const CommandResult r =
-          RunCommand("sh", "-c 'timeout -s TERM " + std::string(duration) + " " +
-                               std::string(DFO_RUN_EXE) + " --config " + test::SourceDir() +
-                               "/configs/demo.yaml --set dataset.path=" + MakeLongSequence() +
-                               " --set run.progress=none --output " + out + " > " + out +
-                               ".log 2>&1; echo $?'");
-      EXPECT_EQ(std::atoi(r.out.c_str()), 124) << ReadFile(out + ".log");
+      EXPECT_EQ(RunUnderTimeout(out, duration), 124) << ReadFile(out + ".log");
     } else {
       const int frame = 1 + (i * 7) % 12;
       EXPECT_EQ(
@@ -522,11 +525,7 @@ TEST(DfoRunInterrupted, DoubleSignalsInALoopLoseNothing) {
           130)
           << ReadFile(out + ".log");
     }
-    const io::JsonValue summary = ReadSummary(out);
-    ExpectInterruptedRunComplete(out,
-                                 summary.Has("interrupted")
-                                     ? static_cast<int>(summary["interrupted"]["signals"].AsInt())
-                                     : 1);
+    ExpectInterruptedRunCompleteAfterItsSignals(out);
   }
 }
 
