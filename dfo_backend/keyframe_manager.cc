@@ -81,8 +81,8 @@ KeyframeDecision KeyframeManager::Decide(const TrackedFrame& frame) {
     return d;  // never a keyframe; the frontend restarts from the next frame
   }
 
-  d.translation_ratio = frame.reference_mean_depth > 0.0
-                            ? frame.ref_from_cam.translation().norm() / frame.reference_mean_depth
+  d.translation_ratio = frame.reference_parallax_depth > 0.0
+                            ? frame.ref_from_cam.translation().norm() / frame.reference_parallax_depth
                             : 0.0;
   d.rotation_deg = frame.ref_from_cam.so3().Angle() * 180.0 / M_PI;
   d.inlier_ratio =

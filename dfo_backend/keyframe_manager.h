@@ -1,9 +1,10 @@
 // The keyframe manager: decides, frame by frame, when the frame just tracked becomes the next
 // keyframe (the frame the tracker then tracks against and the backend's window receives).
 //
-// Rules (DESIGN.md, backend; LSD-SLAM's mean-depth-normalised distance, DSO's residual growth):
+// Rules (DESIGN.md, backend; LSD-SLAM's depth-normalised distance, DSO's residual growth):
 // a tracked frame becomes a keyframe when any of these fires, checked in this order,
-//   translation  |t_kf->cur| / mean_depth(kf)  >  translation_ratio
+//   translation  |t_kf->cur| / d(kf)           >  translation_ratio, d(kf) = 1 / mean inverse
+//                                                 depth of the keyframe's tracked points
 //   rotation     angle(R_kf->cur)              >  rotation_deg
 //   residual     rmse                          >  residual_ratio x rmse of the first frame
 //                                                 tracked after the keyframe
@@ -26,8 +27,9 @@ namespace dfo {
 
 // Thresholds of the keyframe rules (YAML section "keyframe").
 struct KeyframeOptions {
-  // New keyframe when the distance from the keyframe divided by the keyframe's mean depth (finest
-  // level) exceeds this; > 0 (DESIGN.md: start near 0.10; larger keeps a keyframe longer).
+  // New keyframe when the distance from the keyframe divided by the keyframe's parallax depth
+  // (TrackedFrame::reference_parallax_depth: 1 / mean inverse depth of its tracked points, so
+  // near points count as much as they move in the image) exceeds this; > 0.
   double translation_ratio = 0.10;
   // New keyframe when the rotation from the keyframe exceeds this many degrees; in (0, 180].
   double rotation_deg = 5.0;
@@ -71,7 +73,7 @@ struct KeyframeDecision {
   bool new_keyframe = false;
   KeyframeReason reason = KeyframeReason::kNone;
   int frames_since_keyframe = 0;   // this frame's distance in frames from the current keyframe
-  double translation_ratio = 0.0;  // |t_kf->cur| / mean_depth(kf) (0 when the depth is unknown)
+  double translation_ratio = 0.0;  // |t_kf->cur| / parallax depth of kf (0: depth unknown)
   double rotation_deg = 0.0;       // angle of R_kf->cur in degrees
   double residual_ratio = 0.0;     // rmse / first rmse after the keyframe (0 when unknown)
   double inlier_ratio = 1.0;       // num_inliers / num_points (1 when no points)
@@ -84,7 +86,7 @@ class KeyframeManager {
   explicit KeyframeManager(const KeyframeOptions& options);
 
   // The decision for `frame`, the next frame in sequence order (tracked against the current
-  // keyframe: TrackedFrame::ref_from_cam, reference_mean_depth, rmse, inliers). Updates the
+  // keyframe: TrackedFrame::ref_from_cam, reference_parallax_depth, rmse, inliers). Updates the
   // frame count and the first residual after the keyframe. A frame tracked against another
   // reference than the current keyframe (the frontend switched on its own) is taken as the
   // keyframe's replacement: the counters restart from that reference.

@@ -61,7 +61,9 @@ struct TrackedFrame {
   double rmse = 0.0;              // final RMS residual per feature value over the inliers (z-score
                                   // units: 0 = perfect, ~1.4 = unrelated features)
   int iterations = 0;             // Gauss-Newton iterations over all levels and hypotheses
-  double reference_mean_depth = 0.0;  // mean valid depth of the reference at the finest level (m)
+  // 1 / mean inverse depth of the reference's tracked points at the finest level (m): the
+  // keyframe and reference rules divide the translation by it (Tracker::reference_parallax_depth).
+  double reference_parallax_depth = 0.0;
   LostCause lost_cause = LostCause::kNone;  // why, when status is kLost
   // Tracking against reference `retracked_from` failed and the frame was tracked again against
   // the previous frame, which became the reference (reference_index); -1: no re-track.

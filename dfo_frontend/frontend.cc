@@ -12,16 +12,22 @@
 
 namespace dfo {
 
-// What the frontend remembers between frames.
-struct Frontend::State {
+// The frontend's reference (with the tracker, what a residual re-track may have to restore).
+struct ReferenceState {
   bool has_reference = false;
   int reference_index = -1;
   SE3d world_from_ref;
-  double reference_mean_depth = 0.0;
+  double reference_parallax_depth = 0.0;  // Tracker::reference_parallax_depth(0)
   int frames_since_reference = 0;
+  double first_rmse = 0.0;  // RMSE of the first frame tracked against it; 0 before
   // The reference's features and its depth source's pyramid (for SetReferenceDepth).
   FeaturePyramid reference_features;
   DepthPyramid reference_depth;
+};
+
+// What the frontend remembers between frames.
+struct Frontend::State {
+  ReferenceState reference;
   // Last good pose (the pose of lost frames and of a restart reference) and the one before it,
   // for the constant-velocity motion model.
   SE3d world_from_last;
@@ -155,27 +161,28 @@ TrackedFrame Frontend::Process(const Frame& frame) {
     // A switch from a tracked reference carries its depth scale over
     // (FrontendOptions::depth_scale).
     need_depth();
-    if (s.has_reference && PropagatesDepthScale()) {
+    if (s.reference.has_reference && PropagatesDepthScale()) {
       const double scale = DepthScaleFromReference(
-          depth, world_from_cam.Inverse() * s.world_from_ref, features.levels[0].camera);
+          depth, world_from_cam.Inverse() * s.reference.world_from_ref, features.levels[0].camera);
       if (scale > 0.0) depth.Scale(scale);
     }
     const int points = tracker_.SetReference(features, depth);
     if (points < min_points) {
-      s.has_reference = false;
+      s.reference.has_reference = false;
       return false;
     }
-    s.has_reference = true;
-    s.reference_index = frame.index;
-    s.world_from_ref = world_from_cam;
-    s.reference_mean_depth = tracker_.reference_mean_depth(0);
-    s.frames_since_reference = 0;
-    s.reference_features = features;
-    s.reference_depth = depth;
+    s.reference.has_reference = true;
+    s.reference.reference_index = frame.index;
+    s.reference.world_from_ref = world_from_cam;
+    s.reference.reference_parallax_depth = tracker_.reference_parallax_depth(0);
+    s.reference.frames_since_reference = 0;
+    s.reference.first_rmse = 0.0;
+    s.reference.reference_features = features;
+    s.reference.reference_depth = depth;
     return true;
   };
 
-  if (!s.has_reference) {
+  if (!s.reference.has_reference) {
     // First frame, or restart after a loss: this frame becomes the reference at the last good
     // pose (the gap in the trajectory is the preceding lost frame(s)).
     out.world_from_cam = s.world_from_last;
@@ -186,7 +193,7 @@ TrackedFrame Frontend::Process(const Frame& frame) {
       out.reference_index = frame.index;
       out.num_points = tracker_.num_reference_points(0);
       out.num_inliers = out.num_points;
-      out.reference_mean_depth = s.reference_mean_depth;
+      out.reference_parallax_depth = s.reference.reference_parallax_depth;
     } else {
       out.status = TrackingStatus::kLost;
       out.lost_cause =
@@ -198,44 +205,61 @@ TrackedFrame Frontend::Process(const Frame& frame) {
   }
 
   // Hypotheses (DSO): constant velocity, zero, half, double motion from the last good frame.
-  const SE3d last_from_ref = s.world_from_last.Inverse() * s.world_from_ref;
+  const SE3d last_from_ref = s.world_from_last.Inverse() * s.reference.world_from_ref;
   const SE3d motion = s.has_motion ? s.last_from_prev : SE3d();
   // A result is lost when the tracker says so or its pose (against the current reference) is not
   // finite.
   const auto lost = [&](const TrackResult& r) {
     return r.status == TrackingStatus::kLost ||
-           !IsFinite(s.world_from_ref * r.cur_from_ref.Inverse());
+           !IsFinite(s.reference.world_from_ref * r.cur_from_ref.Inverse());
   };
   TrackResult result = tracker_.Track(features, tracker_.MakeHypotheses(last_from_ref, motion));
-  // Lost against the reference: once more against the previous frame, which becomes the
-  // reference (FrontendOptions::retrack_on_loss). MakeLastFrameReference switches only to a
-  // tracked frame with enough depth; the previous frame is the last good pose here.
-  if (lost(result) && options_.retrack_on_loss && s.has_last_frame &&
-      s.last_frame.status != TrackingStatus::kLost && s.last_frame.index != s.reference_index) {
-    const int old_reference = s.reference_index;
+  // Lost against the reference (FrontendOptions::retrack_on_loss), or a residual grown past
+  // retrack_residual_ratio times the first one after the reference: once more against the
+  // previous frame, which becomes the reference when that result is kept (a kept loss retry, or
+  // a residual retry that fits better). MakeLastFrameReference switches only to a tracked frame
+  // with enough depth; the previous frame is the last good pose here.
+  const bool retrack_lost = lost(result) && options_.retrack_on_loss;
+  const bool retrack_residual =
+      !lost(result) && options_.retrack_residual_ratio > 0.0 && s.reference.first_rmse > 0.0 &&
+      result.rmse > options_.retrack_residual_ratio * s.reference.first_rmse;
+  if ((retrack_lost || retrack_residual) && s.has_last_frame &&
+      s.last_frame.status != TrackingStatus::kLost &&
+      s.last_frame.index != s.reference.reference_index) {
+    const int old_reference = s.reference.reference_index;
+    // A residual retry that does not fit better goes back to the reference it left.
+    std::optional<Tracker> saved_tracker;
+    std::optional<ReferenceState> saved_reference;
+    if (!retrack_lost) {
+      saved_tracker = tracker_;
+      saved_reference = s.reference;
+    }
     KeyframeData keyframe;
     if (MakeLastFrameReference(&keyframe)) {
       TrackResult retry = tracker_.Track(features, tracker_.MakeHypotheses(SE3d(), motion));
-      if (!lost(retry)) {
+      if (!lost(retry) && (retrack_lost || retry.rmse < result.rmse)) {
         result = std::move(retry);
         out.retracked_from = old_reference;
         s.retrack_keyframe = std::move(keyframe);
+      } else if (!retrack_lost) {
+        tracker_ = std::move(*saved_tracker);
+        s.reference = std::move(*saved_reference);
       }
     }
   }
-  out.reference_index = s.reference_index;
-  out.reference_mean_depth = s.reference_mean_depth;
+  out.reference_index = s.reference.reference_index;
+  out.reference_parallax_depth = s.reference.reference_parallax_depth;
   out.num_points = result.num_points;
   out.num_inliers = result.num_inliers;
   out.rmse = result.rmse;
   out.iterations = result.iterations;
-  const SE3d world_from_cam = s.world_from_ref * result.cur_from_ref.Inverse();
+  const SE3d world_from_cam = s.reference.world_from_ref * result.cur_from_ref.Inverse();
   if (lost(result)) {
     out.status = TrackingStatus::kLost;
     out.lost_cause = LostCause::kTracking;
     out.world_from_cam = s.world_from_last;  // the gap: the last good pose
-    out.ref_from_cam = s.world_from_ref.Inverse() * s.world_from_last;
-    s.has_reference = false;  // the next frame starts a fresh reference
+    out.ref_from_cam = s.reference.world_from_ref.Inverse() * s.world_from_last;
+    s.reference.has_reference = false;  // the next frame starts a fresh reference
     s.has_motion = false;
     s.last_from_prev = SE3d();
     return finish(out);
@@ -246,20 +270,23 @@ TrackedFrame Frontend::Process(const Frame& frame) {
   s.last_from_prev = world_from_cam.Inverse() * s.world_from_last;
   s.has_motion = true;
   s.world_from_last = world_from_cam;
-  ++s.frames_since_reference;
+  if (s.reference.frames_since_reference == 0) s.reference.first_rmse = result.rmse;
+  ++s.reference.frames_since_reference;
 
-  // Reference switch (ReferenceOptions, policy "internal"): distance relative to the mean depth,
-  // rotation, inlier ratio, interval. A frame whose own depth is too sparse cannot become a
+  // Reference switch (ReferenceOptions, policy "internal"): distance relative to the parallax
+  // depth, rotation, inlier ratio, interval. A frame whose own depth is too sparse cannot become a
   // reference. With policy "external" the caller switches (MakeLastFrameReference).
   if (options_.reference.policy != "internal") return finish(out);
   const ReferenceOptions& ro = options_.reference;
-  const double distance_ratio = s.reference_mean_depth > 0.0
-                                    ? out.ref_from_cam.translation().norm() / s.reference_mean_depth
-                                    : 0.0;
+  const double distance_ratio =
+      s.reference.reference_parallax_depth > 0.0
+          ? out.ref_from_cam.translation().norm() / s.reference.reference_parallax_depth
+          : 0.0;
   const double rotation_deg = out.ref_from_cam.so3().Angle() * 180.0 / M_PI;
-  const bool switch_reference =
-      distance_ratio > ro.translation_ratio || rotation_deg > ro.rotation_deg ||
-      result.inlier_ratio < ro.min_inlier_ratio || s.frames_since_reference >= ro.max_interval;
+  const bool switch_reference = distance_ratio > ro.translation_ratio ||
+                                rotation_deg > ro.rotation_deg ||
+                                result.inlier_ratio < ro.min_inlier_ratio ||
+                                s.reference.frames_since_reference >= ro.max_interval;
   if (switch_reference && need_depth().NumValid(0) >= MinReferenceDepths()) {
     if (make_reference(world_from_cam)) {
       out.is_new_reference = true;
@@ -315,7 +342,7 @@ bool Frontend::MakeLastFrameReference(KeyframeData* keyframe) {
   State& s = *state_;
   if (!s.has_last_frame || s.last_frame.status == TrackingStatus::kLost) return false;
   const TrackedFrame& last = s.last_frame;
-  const bool already = s.has_reference && s.reference_index == last.index;
+  const bool already = s.reference.has_reference && s.reference.reference_index == last.index;
   if (s.last_depth_pending) {
     s.last_depth = ComputeDepth(s.last_input);
     s.last_depth_pending = false;
@@ -324,24 +351,26 @@ bool Frontend::MakeLastFrameReference(KeyframeData* keyframe) {
     if (s.last_depth.num_levels() == 0 || s.last_depth.NumValid(0) < MinReferenceDepths()) {
       return false;  // keep tracking against the current reference
     }
-    if (s.has_reference && PropagatesDepthScale() && !s.last_features.levels.empty()) {
-      const double scale =
-          DepthScaleFromReference(s.last_depth, last.world_from_cam.Inverse() * s.world_from_ref,
-                                  s.last_features.levels[0].camera);
+    if (s.reference.has_reference && PropagatesDepthScale() && !s.last_features.levels.empty()) {
+      const double scale = DepthScaleFromReference(
+          s.last_depth, last.world_from_cam.Inverse() * s.reference.world_from_ref,
+          s.last_features.levels[0].camera);
       if (scale > 0.0) s.last_depth.Scale(scale);
     }
     const int points = tracker_.SetReference(s.last_features, s.last_depth);
     if (points < MinReferencePoints()) {
-      s.has_reference = false;  // as the internal rule: the next frame restarts from itself
+      s.reference.has_reference =
+          false;  // as the internal rule: the next frame restarts from itself
       return false;
     }
-    s.has_reference = true;
-    s.reference_index = last.index;
-    s.world_from_ref = last.world_from_cam;
-    s.reference_mean_depth = tracker_.reference_mean_depth(0);
-    s.frames_since_reference = 0;
-    s.reference_features = s.last_features;
-    s.reference_depth = s.last_depth;
+    s.reference.has_reference = true;
+    s.reference.reference_index = last.index;
+    s.reference.world_from_ref = last.world_from_cam;
+    s.reference.reference_parallax_depth = tracker_.reference_parallax_depth(0);
+    s.reference.frames_since_reference = 0;
+    s.reference.first_rmse = 0.0;
+    s.reference.reference_features = s.last_features;
+    s.reference.reference_depth = s.last_depth;
   }
   if (keyframe != nullptr) {
     keyframe->frame_index = last.index;
@@ -365,7 +394,7 @@ bool Frontend::TakeRetrackKeyframe(KeyframeData* keyframe) {
 
 bool Frontend::SetReferenceDepth(int frame_index, const DepthPyramid& depth) {
   State& s = *state_;
-  if (!s.has_reference || s.reference_index != frame_index) return false;
+  if (!s.reference.has_reference || s.reference.reference_index != frame_index) return false;
   const int num_levels = options_.tracker.num_levels;
   if (depth.num_levels() < num_levels) {
     throw InputError("reference depth for frame " + std::to_string(frame_index) + ": " +
@@ -374,7 +403,7 @@ bool Frontend::SetReferenceDepth(int frame_index, const DepthPyramid& depth) {
   }
   for (int l = 0; l < num_levels; ++l) {
     const ImageF& given = depth.levels[l];
-    const ImageF& own = s.reference_depth.levels[l];
+    const ImageF& own = s.reference.reference_depth.levels[l];
     if (given.width() != own.width() || given.height() != own.height() || given.channels() != 1) {
       throw InputError("reference depth for frame " + std::to_string(frame_index) + ": level " +
                        std::to_string(l) + " is " + std::to_string(given.width()) + "x" +
@@ -384,15 +413,17 @@ bool Frontend::SetReferenceDepth(int frame_index, const DepthPyramid& depth) {
     }
   }
   if (depth.NumValid(0) < MinReferenceDepths() ||
-      tracker_.SetReference(s.reference_features, depth) < MinReferencePoints()) {
+      tracker_.SetReference(s.reference.reference_features, depth) < MinReferencePoints()) {
     // Back to the depth the reference had (the source's, which made a usable reference).
-    tracker_.SetReference(s.reference_features, s.reference_depth);
+    tracker_.SetReference(s.reference.reference_features, s.reference.reference_depth);
     return false;
   }
-  s.reference_mean_depth = tracker_.reference_mean_depth(0);
+  s.reference.reference_parallax_depth = tracker_.reference_parallax_depth(0);
   return true;
 }
 
-const DepthPyramid& Frontend::reference_source_depth() const { return state_->reference_depth; }
+const DepthPyramid& Frontend::reference_source_depth() const {
+  return state_->reference.reference_depth;
+}
 
 }  // namespace dfo

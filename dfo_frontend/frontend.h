@@ -56,6 +56,12 @@ struct FrontendOptions {
   // TakeRetrackKeyframe). Without it the lost frame keeps the last good pose and the next frame
   // restarts from it, so the motion of the lost frames is missing from the trajectory.
   bool retrack_on_loss = true;
+  // A frame tracked with an RMS residual above this times that of the first frame tracked
+  // against the reference (the keyframe residual rule's test, DSO's 2x) is tracked again against
+  // the previous frame in the same way, and the result that fits better is kept: a frame that
+  // has drifted into a wrong minimum (repeated texture, near points leaving the view) is not
+  // made a keyframe with its wrong pose. >= 1; 0 = off.
+  double retrack_residual_ratio = 2.0;
   // Threads for the frontend's own work, >= 1. The tracker is currently single-threaded (its
   // per-level problems are small); the value is validated and kept for the learned sources.
   int num_threads = 1;

@@ -82,6 +82,8 @@ void FrontendOptions::Check() const {
   CheckOption(depth == "gt" || depth == "learned", "frontend.depth", depth, "one of {gt, learned}");
   CheckOption(depth_scale == "none" || depth_scale == "propagate", "frontend.depth_scale",
               depth_scale, "one of {none, propagate}");
+  CheckOption(retrack_residual_ratio == 0.0 || retrack_residual_ratio >= 1.0,
+              "frontend.retrack_residual_ratio", retrack_residual_ratio, "0 (off) or >= 1");
   CheckOption(num_threads >= 1, "frontend.num_threads", num_threads, ">= 1");
   // Nested options name their own section; prefix it with "frontend.".
   try {

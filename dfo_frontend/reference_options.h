@@ -18,8 +18,9 @@ struct ReferenceOptions {
   // In both modes the first frame and the frame after a loss become references by themselves
   // (status kReference).
   std::string policy = "internal";
-  // Switch when |t_ref_cur| / mean depth of the reference exceeds this, > 0 (the backend's
-  // keyframe rule s_t of DESIGN.md; larger values keep a reference longer).
+  // Switch when |t_ref_cur| / parallax depth of the reference (1 / mean inverse depth of its
+  // tracked points) exceeds this, > 0 (the backend's keyframe rule; larger keeps a reference
+  // longer).
   double translation_ratio = 0.15;
   // Switch when the rotation from the reference exceeds this many degrees, > 0.
   double rotation_deg = 10.0;

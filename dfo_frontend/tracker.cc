@@ -69,11 +69,24 @@ Tracker::Tracker(const TrackerOptions& options) : options_(options) { options_.C
 Tracker::~Tracker() = default;
 Tracker::Tracker(Tracker&&) noexcept = default;
 Tracker& Tracker::operator=(Tracker&&) noexcept = default;
+Tracker::Tracker(const Tracker&) = default;
+Tracker& Tracker::operator=(const Tracker&) = default;
 
 double Tracker::reference_mean_depth(int level) const {
   if (levels_.empty()) return 0.0;
   DFO_CHECK(level >= 0 && level < static_cast<int>(levels_.size())) << level;
   return levels_[level].mean_depth;
+}
+
+double Tracker::reference_parallax_depth(int level) const {
+  double sum_inverse = 0.0;
+  int n = 0;
+  for (float z : reference_depths(level)) {
+    if (!(z > 0.0f) || !std::isfinite(z)) continue;
+    sum_inverse += 1.0 / z;
+    ++n;
+  }
+  return n > 0 && sum_inverse > 0.0 ? n / sum_inverse : 0.0;
 }
 
 int Tracker::num_reference_points(int level) const {

@@ -111,6 +111,8 @@ class Tracker {
   ~Tracker();
   Tracker(Tracker&&) noexcept;
   Tracker& operator=(Tracker&&) noexcept;
+  Tracker(const Tracker&);  // copies the reference (the frontend restores one after a re-track)
+  Tracker& operator=(const Tracker&);
 
   // Sets the reference: per level, selects points, gathers K x K patches with valid depth and
   // precomputes the inverse-compositional Jacobians. The pyramids need >= num_levels levels of
@@ -121,6 +123,10 @@ class Tracker {
   // Mean valid depth of the reference at each level (metres; the translation rescaling uses
   // the ratios), and of the finest level.
   double reference_mean_depth(int level = 0) const;
+  // The depth at which a translation gives the reference's points at `level` their mean parallax:
+  // 1 / (mean inverse depth of the selected patch centres), metres; 0 without points. Unlike the
+  // mean depth it is not dominated by far background and sky, which move little in the image.
+  double reference_parallax_depth(int level = 0) const;
   int num_reference_points(int level = 0) const;
   // Patch centres (pixels) selected in the reference at `level`, in patch order.
   std::vector<Eigen::Vector2i> reference_points(int level = 0) const;

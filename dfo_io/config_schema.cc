@@ -114,6 +114,12 @@ ConfigSchema BuildSchema() {
             "A frame lost against the reference is tracked again against the previous frame, "
             "which becomes a keyframe (reason retrack); false: the next frame restarts from the "
             "last good pose");
+  s.AddDouble("frontend.retrack_residual_ratio", 2.0,
+              "A frame tracked with an RMS residual above this times that of the first frame "
+              "tracked against the reference is tracked again against the previous frame, and "
+              "the better fit is kept (the previous frame then becomes a keyframe, reason "
+              "retrack); 0 = off, otherwise >= 1")
+      .Min(0);
 
   // Defaults mirror LearnedModelOptions (dfo_frontend/learned/learned_sources.h) except the model
   // path (required there) and the threads (run.threads there); a test in tests/apps compares them
@@ -250,7 +256,8 @@ ConfigSchema BuildSchema() {
                "The frontend's own reference-switch rule (any rule that fires switches); used only "
                "when keyframe.decided_by = frontend.");
   s.AddDouble("reference.translation_ratio", 0.15,
-              "Switch when |t_ref_cur| / mean depth of the reference exceeds this")
+              "Switch when |t_ref_cur| / parallax depth (1 / mean inverse depth of the tracked "
+              "points) of the reference exceeds this")
       .GreaterThan(0);
   s.AddDouble("reference.rotation_deg", 10.0,
               "Switch when the rotation from the reference exceeds this many degrees")
@@ -273,7 +280,8 @@ ConfigSchema BuildSchema() {
               "frontend's own reference rule, section reference (frontend)")
       .OneOf({"manager", "frontend"});
   s.AddDouble("keyframe.translation_ratio", 0.10,
-              "New keyframe when |t_kf->cur| / mean depth of the keyframe exceeds this")
+              "New keyframe when |t_kf->cur| / parallax depth (1 / mean inverse depth of the "
+              "tracked points) of the keyframe exceeds this")
       .GreaterThan(0);
   s.AddDouble("keyframe.rotation_deg", 5.0,
               "New keyframe when the rotation from the keyframe exceeds this many degrees")

@@ -21,6 +21,7 @@ FrontendOptions FrontendOptionsFromConfig(const io::Config& config, bool dataset
   o.handmade.keyframe_blur_sigma_px = config.GetDouble("frontend.handmade_keyframe_blur_sigma_px");
   o.depth_scale = config.GetString("frontend.depth_scale");
   o.retrack_on_loss = config.GetBool("frontend.retrack_on_loss");
+  o.retrack_residual_ratio = config.GetDouble("frontend.retrack_residual_ratio");
 
   TrackerOptions& t = o.tracker;
   t.num_levels = config.GetInt("tracker.num_levels");

@@ -20,7 +20,7 @@ TrackedFrame Tracked(int index, int ref, double t_m, double deg = 0.0, double rm
   f.reference_index = ref;
   f.ref_from_cam = SE3d(SO3d::Exp(Eigen::Vector3d(0.0, deg * M_PI / 180.0, 0.0)),
                         Eigen::Vector3d(t_m, 0.0, 0.0));
-  f.reference_mean_depth = 10.0;
+  f.reference_parallax_depth = 10.0;
   f.num_points = 100;
   f.num_inliers = inliers;
   f.rmse = rmse;
@@ -60,7 +60,7 @@ TEST(KeyframeManagerTest, TranslationRatioRelativeToMeanDepth) {
   // The same distance with a deeper keyframe is not enough.
   m.AcceptKeyframe(2);
   TrackedFrame deep = Tracked(3, 2, 1.1);
-  deep.reference_mean_depth = 20.0;
+  deep.reference_parallax_depth = 20.0;
   EXPECT_FALSE(m.Decide(deep).new_keyframe);
 }
 
@@ -150,7 +150,7 @@ TEST(KeyframeManagerTest, RejectedKeyframeFiresAgainNextFrame) {
 TEST(KeyframeManagerTest, UnknownDepthDisablesTranslationRule) {
   KeyframeManager m = Started(KeyframeOptions());
   TrackedFrame f = Tracked(1, 0, 100.0);
-  f.reference_mean_depth = 0.0;
+  f.reference_parallax_depth = 0.0;
   const KeyframeDecision d = m.Decide(f);
   EXPECT_FALSE(d.new_keyframe);
   EXPECT_EQ(d.translation_ratio, 0.0);

@@ -558,8 +558,8 @@ TEST(Odometry, RunMedianSourceScaleIsTheMedianOfTheWindowScalesSoFar) {
 // The capability of window.source_scale "window": with a depth source whose every map has its
 // own scale, tracked against each keyframe's source depth with the steps rescaled to the window's
 // scale, the windowed trajectory keeps one scale (the window's, carried by the points that
-// keyframes share) where the frontend-only one takes each keyframe's; with "raw" the depth prior
-// pulls each keyframe's points toward its own map's scale.
+// keyframes share) where the frontend-only one takes each keyframe's; with "raw" a depth prior
+// (weight 2 here) pulls each keyframe's points toward its own map's scale.
 TEST(Odometry, CarriedSourceScaleKeepsTheWindowsScaleAgainstPerImageScales) {
   double windowed[2] = {0, 0};
   double frontend = 0.0;
@@ -568,6 +568,7 @@ TEST(Odometry, CarriedSourceScaleKeepsTheWindowsScaleAgainstPerImageScales) {
     OdometryOptions o = Deterministic(OdometryMode::kBoth);
     o.tracking.depth = "source";
     o.tracking.source_scale = modes[k];
+    o.window.depth_prior_weight = 2.0;
     Odometry odometry(External(), o, nullptr, std::make_unique<RandomScaleDepthSource>());
     for (const Frame& f : Frames()) odometry.Process(f);
     windowed[k] = StepScaleSpread(odometry.WindowedTrajectory());

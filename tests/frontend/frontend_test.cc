@@ -44,6 +44,23 @@ class FrontendTest : public ::testing::Test {
     delete frames_;
     delete sequence_;
   }
+  // `t`, frame `frame` re-tracked from reference 0: against `previous`, which is its reference
+  // now, at the true pose (true depth); the previous frame's keyframe data is handed out once.
+  static void ExpectRetrackedAgainst(Frontend* frontend, const TrackedFrame& t, int frame,
+                                     int previous) {
+    EXPECT_NE(t.status, TrackingStatus::kLost);
+    EXPECT_EQ(t.retracked_from, 0);
+    EXPECT_EQ(t.reference_index, previous);
+    const SE3d truth = sequence_->WorldFromCam(previous).Inverse() * sequence_->WorldFromCam(frame);
+    const SE3d error = truth.Inverse() * t.ref_from_cam;
+    EXPECT_LT(error.translation().norm(), 0.02) << "true step " << truth.translation().norm();
+    EXPECT_LT(error.so3().Angle() * 180.0 / M_PI, 0.1);
+    KeyframeData keyframe;
+    ASSERT_TRUE(frontend->TakeRetrackKeyframe(&keyframe));
+    EXPECT_EQ(keyframe.frame_index, previous);
+    EXPECT_FALSE(keyframe.features.levels.empty());
+    EXPECT_FALSE(frontend->TakeRetrackKeyframe(&keyframe));
+  }
   static SyntheticSequence* sequence_;
   static std::vector<Frame>* frames_;
 };
@@ -116,9 +133,9 @@ TEST_F(FrontendTest, DepthScalePropagationUndoesPerFrameScaleJumps) {
     }
     TrajectoryAlignmentOptions align;
     align.type = AlignmentType::kSim3;
-    ate[i++] = ComputeAte(truth, AlignTrajectory(estimate, truth, align).aligned_estimate)
-                   .stats.rmse /
-               truth.PathLength();
+    ate[i++] =
+        ComputeAte(truth, AlignTrajectory(estimate, truth, align).aligned_estimate).stats.rmse /
+        truth.PathLength();
   }
   std::printf("[ figures  ] Sim3 ATE / path: none %.4f, propagate %.4f\n", ate[0], ate[1]);
   EXPECT_LT(ate[1], 0.005);
@@ -192,6 +209,7 @@ TEST_F(FrontendTest, FrameLostAgainstTheReferenceIsRetrackedAgainstThePreviousFr
   FrontendOptions options;
   options.reference.policy = "external";
   options.retrack_on_loss = false;
+  options.retrack_residual_ratio = 0.0;  // the residual re-track is tested below
   Frontend without(options);
   int first_lost = -1;
   for (int i = 0; i < 60 && first_lost < 0; i += 2) {
@@ -208,26 +226,72 @@ TEST_F(FrontendTest, FrameLostAgainstTheReferenceIsRetrackedAgainstThePreviousFr
   }
   t = with.Process((*frames_)[first_lost]);
   const int previous = first_lost - 2;
-  EXPECT_NE(t.status, TrackingStatus::kLost);
-  EXPECT_EQ(t.retracked_from, 0);
-  EXPECT_EQ(t.reference_index, previous);
-  // The pose relative to the previous frame is the true one (true depth).
-  const SE3d truth =
-      sequence_->WorldFromCam(previous).Inverse() * sequence_->WorldFromCam(first_lost);
-  const SE3d error = truth.Inverse() * t.ref_from_cam;
-  EXPECT_LT(error.translation().norm(), 0.02) << "true step " << truth.translation().norm();
-  EXPECT_LT(error.so3().Angle() * 180.0 / M_PI, 0.1);
-  // The previous frame's keyframe data, once.
-  KeyframeData keyframe;
-  ASSERT_TRUE(with.TakeRetrackKeyframe(&keyframe));
-  EXPECT_EQ(keyframe.frame_index, previous);
-  EXPECT_FALSE(keyframe.features.levels.empty());
-  EXPECT_FALSE(with.TakeRetrackKeyframe(&keyframe));
+  ExpectRetrackedAgainst(&with, t, first_lost, previous);
   // The next frame is tracked against the new reference.
   t = with.Process((*frames_)[first_lost + 1]);
   EXPECT_NE(t.status, TrackingStatus::kLost);
   EXPECT_EQ(t.reference_index, previous);
   EXPECT_EQ(t.retracked_from, -1);
+}
+
+// The same held reference: before tracking is lost, the residual grows past twice the first
+// frame's. FrontendOptions::retrack_residual_ratio then tracks that frame against the previous
+// one, which becomes the reference, and keeps the better fit; the frames before are untouched.
+TEST_F(FrontendTest, FrameWhoseResidualDoublesIsRetrackedAgainstThePreviousFrame) {
+  FrontendOptions options;
+  options.reference.policy = "external";
+  options.retrack_residual_ratio = 0.0;
+  Frontend without(options);
+  double first_rmse = 0.0;
+  int first_high = -1;
+  double high_rmse = 0.0;
+  for (int i = 2; i < 60 && first_high < 0; i += 2) {
+    if (i == 2) without.Process((*frames_)[0]);
+    const TrackedFrame t = without.Process((*frames_)[i]);
+    if (t.status == TrackingStatus::kLost) break;
+    if (i == 2) first_rmse = t.rmse;
+    if (t.rmse > 2.0 * first_rmse) {
+      first_high = i;
+      high_rmse = t.rmse;
+    }
+  }
+  ASSERT_GT(first_high, 2) << "the residual against frame 0 never doubled before a loss";
+
+  options.retrack_residual_ratio = 2.0;
+  Frontend with(options);
+  TrackedFrame t;
+  for (int i = 0; i < first_high; i += 2) {
+    t = with.Process((*frames_)[i]);
+    EXPECT_EQ(t.retracked_from, -1) << "frame " << i;
+    EXPECT_EQ(t.reference_index, 0) << "frame " << i;
+  }
+  t = with.Process((*frames_)[first_high]);
+  EXPECT_LT(t.rmse, high_rmse);
+  ExpectRetrackedAgainst(&with, t, first_high, first_high - 2);
+}
+
+// A residual re-track that does not fit better leaves the reference as it was: with a ratio of 1
+// every frame whose residual grows is tried against the previous frame, and the poses stay
+// those of tracking against the kept reference.
+TEST_F(FrontendTest, ResidualRetrackThatFitsWorseKeepsTheReference) {
+  FrontendOptions options;
+  options.reference.policy = "external";
+  options.retrack_residual_ratio = 1.0;
+  Frontend frontend(options);
+  frontend.Process((*frames_)[0]);
+  for (int i = 1; i < 12; ++i) {
+    const TrackedFrame t = frontend.Process((*frames_)[i]);
+    ASSERT_NE(t.status, TrackingStatus::kLost) << "frame " << i;
+    // Whichever reference the frame ended against, its pose is the true one.
+    const SE3d truth =
+        sequence_->WorldFromCam(t.reference_index).Inverse() * sequence_->WorldFromCam(i);
+    const SE3d error = truth.Inverse() * t.ref_from_cam;
+    EXPECT_LT(error.translation().norm(), 0.03) << "frame " << i;
+    EXPECT_EQ(t.retracked_from >= 0, t.reference_index == i - 1 && t.reference_index != 0)
+        << "frame " << i;
+    KeyframeData keyframe;
+    EXPECT_EQ(frontend.TakeRetrackKeyframe(&keyframe), t.retracked_from >= 0) << "frame " << i;
+  }
 }
 
 TEST_F(FrontendTest, BadInputThrowsInputErrorNamingTheFrame) {
