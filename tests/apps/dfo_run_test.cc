@@ -610,7 +610,8 @@ TEST(DfoRun, DemoKeepsItsMeasuredAccuracy) {
 }
 
 // configs/kitti.yaml on real video (../shared/data) keeps the figures the README states
-// (tests/support/measured_figures.h): KITTI 06 frames 0-50 and all 801 frames of KITTI 03.
+// (tests/support/measured_figures.h): KITTI 06 frames 0-50, KITTI 00 frames 0-159 and all 801
+// frames of KITTI 03.
 TEST(DfoRun, KittiConfigKeepsItsMeasuredAccuracyOnRealVideo) {
   DFO_SKIP_WITHOUT_SHARED_DATA();
   const std::string shared = test::SharedDataDir();
@@ -621,10 +622,7 @@ TEST(DfoRun, KittiConfigKeepsItsMeasuredAccuracyOnRealVideo) {
         RunCommand("cd " + test::SourceDir() + " && " + std::string(DFO_RUN_EXE),
                    "--config configs/kitti.yaml --set dataset.path=" + shared +
                        "/kitti --set dataset.sequence=" + sequence + extra +
-                       " --set frontend.depth=learned --set dataset.image_width=208"
-                       " --set dataset.image_height=64 --set run.progress=none --set "
-                       "run.plot=false --output " +
-                       out);
+                       " --set run.progress=none --set run.plot=false --output " + out);
     EXPECT_EQ(r.status, 0) << r.out << r.err;
     return ReadSummary(out);
   };
@@ -632,6 +630,10 @@ TEST(DfoRun, KittiConfigKeepsItsMeasuredAccuracyOnRealVideo) {
   EXPECT_EQ(k06["frames_lost"].AsInt(), 0);
   const double k06_ate = k06["windowed"]["ate_rmse"].AsNumber();
   EXPECT_LE(k06_ate, test::kKitti06WindowedAteBound) << "measured " << test::kKitti06WindowedAte;
+  const io::JsonValue k00 = run("00", " --set dataset.last=159");
+  EXPECT_EQ(k00["frames_lost"].AsInt(), 0);
+  const double k00_ate = k00["windowed"]["ate_rmse"].AsNumber();
+  EXPECT_LE(k00_ate, test::kKitti00WindowedAteBound) << "measured " << test::kKitti00WindowedAte;
   const io::JsonValue k03 = run("03", "");
   EXPECT_EQ(k03["frames_lost"].AsInt(), 0);
   const double k03_ate = k03["windowed"]["ate_rmse"].AsNumber();
@@ -641,6 +643,7 @@ TEST(DfoRun, KittiConfigKeepsItsMeasuredAccuracyOnRealVideo) {
       << "measured " << test::kKitti03WindowedTRelPct;
   // Much better than measured means the README's figures are stale: update them.
   EXPECT_GT(k06_ate, 0.5 * test::kKitti06WindowedAte);
+  EXPECT_GT(k00_ate, 0.5 * test::kKitti00WindowedAte);
   EXPECT_GT(k03_ate, 0.5 * test::kKitti03WindowedAte);
 }
 
