@@ -128,10 +128,12 @@ void PrintComparison(const apps::SequenceRunResult& result, const apps::RunOutpu
   std::cout << ")";
   if (result.has_windowed()) {
     std::cout << "; window: " << k["ba_optimized"].AsInt() << " solves kept, "
-              << k["ba_failed"].AsInt() << " not, " << k["marginalized"].AsInt()
-              << " keyframes marginalised into the prior and " << k["dropped"].AsInt()
-              << " dropped when leaving the window, at most " << k["max_points"].AsInt()
-              << " points / " << k["max_residual_blocks"].AsInt() << " residual blocks";
+              << k["ba_failed"].AsInt() << " not, " << k["ba_converged"].AsInt()
+              << " converged (median " << k["ba_iterations_median"].AsNumber() << " iterations), "
+              << k["marginalized"].AsInt() << " keyframes marginalised into the prior and "
+              << k["dropped"].AsInt() << " dropped when leaving the window, at most "
+              << k["max_points"].AsInt() << " points / " << k["max_residual_blocks"].AsInt()
+              << " residual blocks";
   }
   std::cout << "\n";
   // What the frames were tracked against (tracker.depth).

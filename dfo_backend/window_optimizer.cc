@@ -606,7 +606,7 @@ void WindowOptimizer::RemovePointsWithoutResiduals() {
 }
 
 bool WindowOptimizer::Solve(int max_iterations, double* initial_cost, double* final_cost,
-                            std::string* why, bool coarse) {
+                            std::string* why, bool coarse, WindowResult* result) {
   // Ceres solves on copies laid out contiguously in window order (poses oldest first, then the
   // inverse depths in point order), copied back only when the solve succeeded. Ceres's
   // ParameterBlockOrdering keeps each elimination group as a set of addresses, so the order in
@@ -751,6 +751,11 @@ bool WindowOptimizer::Solve(int max_iterations, double* initial_cost, double* fi
   ceres::Solve(solver_options, &problem, &summary);
   *initial_cost = summary.initial_cost;
   *final_cost = summary.final_cost;
+  if (result != nullptr) {
+    // Ceres counts the evaluation at the start as iteration 0.
+    result->num_iterations += std::max(0, static_cast<int>(summary.iterations.size()) - 1);
+    if (summary.termination_type != ceres::CONVERGENCE) result->converged = false;
+  }
   // The inverse-depth lower bound is enforced by projection after the solve (as DSO clamps its
   // inverse depths), not by Ceres's bound constraints: with bounds, every LM step becomes a
   // projected line search with extra Jacobian evaluations (measured: 5 evaluations for 2
@@ -969,14 +974,16 @@ WindowResult WindowOptimizer::AddKeyframe(KeyframeData data) {
       std::string coarse_why;
       Solve(options_.coarse_iterations, &c0, &c1, &coarse_why, /*coarse=*/true);
     }
-    if (Solve(options_.max_iterations, &c0, &c1, &why)) {
+    result.converged = true;
+    if (Solve(options_.max_iterations, &c0, &c1, &why, /*coarse=*/false, &result)) {
       result.optimized = true;
       result.initial_cost = c0;
       result.final_cost = c1;
       result.num_gated_blocks = GateOutliers();
       if (result.num_gated_blocks > 0) {
         double c2 = 0.0, c3 = 0.0;
-        if (Solve(std::max(1, options_.max_iterations / 2), &c2, &c3, &why)) {
+        if (Solve(std::max(1, options_.max_iterations / 2), &c2, &c3, &why, /*coarse=*/false,
+                  &result)) {
           result.final_cost = c3;
         } else {
           result.message = "second solve: " + why;
@@ -985,6 +992,7 @@ WindowResult WindowOptimizer::AddKeyframe(KeyframeData data) {
     } else {
       result.message = why;
     }
+    result.converged = result.converged && result.optimized;
   }
   result.solve_ms = MsSince(solve_start);
 

@@ -241,6 +241,11 @@ struct WindowResult {
   // Window size after this step.
   int num_points = 0;
   int num_residual_blocks = 0;
+  // Levenberg-Marquardt iterations of this step's solves (both, around the outlier gate), and
+  // whether every one of them ended by Ceres's convergence tolerances (function, gradient or
+  // parameter tolerance) rather than at window.max_iterations or the time limit.
+  int num_iterations = 0;
+  bool converged = false;
   // Number of blocks the outlier gate dropped.
   int num_gated_blocks = 0;
   // Depth search (WindowOptions::depth_search_range): new points searched, and those that moved
@@ -313,8 +318,10 @@ class WindowOptimizer {
   void SearchNewPointDepths(const KeyframeState* keyframe, WindowResult* result);
   // One Ceres solve over the current state; false with *why on failure (state untouched then).
   // coarse: on pyramid_level + 1 (the warm-up), with blocks for the same (point, target) pairs.
+  // Adds the solve's Levenberg-Marquardt iterations to result->num_iterations and clears
+  // result->converged unless Ceres ended it by its convergence tolerances (when given).
   bool Solve(int max_iterations, double* initial_cost, double* final_cost, std::string* why,
-             bool coarse = false);
+             bool coarse = false, WindowResult* result = nullptr);
   int GateOutliers();
   int ChooseKeyframeToMarginalize() const;
   void MarginalizeKeyframe(int position, WindowResult* result);

@@ -2,6 +2,7 @@
 
 #include <unistd.h>
 
+#include <algorithm>
 #include <cerrno>
 #include <chrono>
 #include <cmath>
@@ -15,6 +16,7 @@
 #include <map>
 #include <memory>
 #include <utility>
+#include <vector>
 
 #include "apps/common/cli.h"
 #include "apps/common/run_stats.h"
@@ -315,8 +317,9 @@ io::JsonValue KeyframesToJson(const SequenceRunResult& result) {
   io::JsonValue k = io::JsonValue::Object();
   k.Set("count", static_cast<int64_t>(result.keyframes.size()));
   std::map<std::string, int> reasons;
-  int ba_runs = 0, optimized = 0, marginalized = 0, dropped = 0, max_keyframes = 0, max_points = 0,
-      max_blocks = 0;
+  int ba_runs = 0, optimized = 0, converged = 0, marginalized = 0, dropped = 0, max_keyframes = 0,
+      max_points = 0, max_blocks = 0;
+  std::vector<double> iterations;
   io::JsonValue failures = io::JsonValue::Array();
   for (const KeyframeRecord& r : result.keyframes) {
     ++reasons[r.reason == KeyframeReason::kNone ? "frontend" : KeyframeReasonName(r.reason)];
@@ -324,6 +327,8 @@ io::JsonValue KeyframesToJson(const SequenceRunResult& result) {
     if (!r.ba_ran || r.window.keyframe_poses.size() < 2) continue;
     ++ba_runs;
     optimized += r.window.optimized ? 1 : 0;
+    converged += r.window.converged ? 1 : 0;
+    iterations.push_back(r.window.num_iterations);
     const bool left = r.window.marginalized_frame_index >= 0;
     marginalized += left && r.window.marginalized_into_prior ? 1 : 0;
     dropped += left && !r.window.marginalized_into_prior ? 1 : 0;
@@ -343,6 +348,14 @@ io::JsonValue KeyframesToJson(const SequenceRunResult& result) {
   k.Set("ba_runs", ba_runs);
   k.Set("ba_optimized", optimized);
   k.Set("ba_failed", ba_runs - optimized);
+  k.Set("ba_converged", converged);
+  double median_iterations = 0.0;
+  if (!iterations.empty()) {
+    const auto middle = iterations.begin() + iterations.size() / 2;
+    std::nth_element(iterations.begin(), middle, iterations.end());
+    median_iterations = *middle;
+  }
+  k.Set("ba_iterations_median", median_iterations);
   k.Set("marginalized", marginalized);
   k.Set("dropped", dropped);
   k.Set("max_window_keyframes", max_keyframes);

@@ -165,6 +165,33 @@ TEST(WindowOptimizerTest, PerturbedPosesAndDepthsReturnToGroundTruth) {
   ExpectReturned(r);
 }
 
+// A step says how many iterations its solves took and whether they converged: from perturbed
+// poses one iteration is cut off by window.max_iterations, 50 end by Ceres's tolerances.
+TEST(WindowOptimizerTest, StepsReportIterationsAndConvergence) {
+  for (const int max_iterations : {1, 50}) {
+    WindowOptions options = TestOptions();
+    options.max_iterations = max_iterations;
+    WindowOptimizer window(options);
+    std::mt19937 rng(1);
+    WindowResult result;
+    for (int index = 0; index <= 3; index += 3) {
+      KeyframeData kf = test::MakeSyntheticKeyframe(Sequence(), index, 2, 0.05);
+      if (index > 0) kf.world_from_cam = Perturb(kf.world_from_cam, 0.05, 0.01, &rng);
+      result = window.AddKeyframe(std::move(kf));
+    }
+    ASSERT_TRUE(result.optimized) << result.message;
+    if (max_iterations == 1) {
+      EXPECT_FALSE(result.converged);
+      EXPECT_GE(result.num_iterations, 1);
+      EXPECT_LE(result.num_iterations, 2);  // the second solve after the gate: 1 more at most
+    } else {
+      EXPECT_TRUE(result.converged) << result.num_iterations << " iterations";
+      EXPECT_GT(result.num_iterations, 1);
+      EXPECT_LT(result.num_iterations, 2 * max_iterations);
+    }
+  }
+}
+
 // The default scale gate (max_patch_stretch 1.5) leaves out the near points' long links, the
 // strongest parallax, so its basin is narrower: measured, it returns from 0.75 x the
 // perturbation above and not from 1 x (0.92 deg, 0.27 m after). Half of it must work.
