@@ -98,7 +98,9 @@ OdometryFrame Odometry::Process(const Frame& frame) {
   if (window_ && options_.stereo.enabled()) {
     recent_.push_back(
         {frame.index, out.tracked.status == TrackingStatus::kLost, GreyLevels(frame.image, 1.0f)});
-    while (static_cast<int>(recent_.size()) > options_.stereo.views + 1) recent_.pop_front();
+    // The views of a keyframe are the frames before it; a re-track keyframe is the frame before
+    // the newest one, hence one frame more than the views.
+    while (static_cast<int>(recent_.size()) > options_.stereo.views + 2) recent_.pop_front();
   }
   const TrackedFrame& t = out.tracked;
   // Lost against the keyframe, tracked against the previous frame: that frame becomes a keyframe
@@ -221,17 +223,22 @@ void Odometry::SubmitToWindow(const TrackedFrame& t, KeyframeData* given) {
         WindowToSourceScale(window_->PointsInCamera(data.world_from_cam), data.depth.levels[0],
                             pending->cameras[0], tracking.min_window_points);
   }
-  if (options_.stereo.enabled() && kf.window_scale > 0.0 && !recent_.empty() &&
-      recent_.back().index == t.index && !pending->cameras.empty()) {
-    // The keyframe against the frames before it, at their windowed poses.
+  // The keyframe's own image: the newest frame, or the one before it for a re-track keyframe.
+  const auto own = std::find_if(recent_.rbegin(), recent_.rend(),
+                                [&](const RecentFrame& r) { return r.index == t.index; });
+  if (options_.stereo.enabled() && kf.window_scale > 0.0 && own != recent_.rend() &&
+      !pending->cameras.empty()) {
+    // The keyframe against the (at most stereo.views) frames before it, at their windowed poses,
+    // oldest first.
     std::vector<StereoView> views;
-    for (size_t k = 0; k + 1 < recent_.size(); ++k) {
-      if (recent_[k].lost || !poses_.Contains(recent_[k].index)) continue;
-      views.push_back({&recent_[k].grey,
-                       poses_.WindowedPose(recent_[k].index).Inverse() * data.world_from_cam});
+    for (auto r = std::next(own);
+         r != recent_.rend() && static_cast<int>(views.size()) < options_.stereo.views; ++r) {
+      if (r->lost || !poses_.Contains(r->index)) continue;
+      views.push_back({&r->grey, poses_.WindowedPose(r->index).Inverse() * data.world_from_cam});
     }
-    kf.stereo = ApplyKeyframeStereo(recent_.back().grey, pending->cameras[0], views,
-                                    kf.window_scale, options_.stereo, &data.depth);
+    std::reverse(views.begin(), views.end());
+    kf.stereo = ApplyKeyframeStereo(own->grey, pending->cameras[0], views, kf.window_scale,
+                                    options_.stereo, &data.depth);
     // The frames until the next keyframe are tracked against it.
     if (kf.stereo.num_replaced > 0) frontend_->SetReferenceDepth(t.index, data.depth);
   }

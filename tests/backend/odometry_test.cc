@@ -262,16 +262,22 @@ TEST(Odometry, KeyframesAreReportedFromTheSolvesOfTheirFirstMaxKeyframesSteps) {
   EXPECT_GE(outlived, 1) << "no keyframe stayed in the window beyond max_keyframes steps";
 }
 
-// Keyframe rules that keep the first keyframe until tracking against it fails (every second
-// frame): the lost frame is re-tracked against the previous frame, which the Odometry makes a
-// keyframe (reason retrack) before booking the frame against it. Nothing is lost.
-TEST(Odometry, AFrameLostAgainstTheKeyframeMakesThePreviousFrameAKeyframe) {
+// Keyframe rules that keep the first keyframe until tracking against it fails.
+OdometryOptions KeepTheFirstKeyframe() {
   OdometryOptions options = Deterministic(OdometryMode::kBoth);
   options.keyframe.translation_ratio = 100.0;
   options.keyframe.rotation_deg = 180.0;
   options.keyframe.residual_ratio = 100.0;
   options.keyframe.min_inlier_ratio = 0.0;
   options.keyframe.max_interval = 1000;
+  return options;
+}
+
+// Keyframe rules that keep the first keyframe until tracking against it fails (every second
+// frame): the lost frame is re-tracked against the previous frame, which the Odometry makes a
+// keyframe (reason retrack) before booking the frame against it. Nothing is lost.
+TEST(Odometry, AFrameLostAgainstTheKeyframeMakesThePreviousFrameAKeyframe) {
+  OdometryOptions options = KeepTheFirstKeyframe();
   Odometry odometry(External(), options);
   int promoted = -1, previous = -1, retracked = -1;
   SE3d retracked_kf_from_cam;
@@ -301,6 +307,25 @@ TEST(Odometry, AFrameLostAgainstTheKeyframeMakesThePreviousFrameAKeyframe) {
   const SE3d error = truth.Inverse() * retracked_kf_from_cam;
   EXPECT_LT(error.translation().norm(), 0.02) << "true step " << truth.translation().norm();
   EXPECT_LT(error.so3().Angle() * 180.0 / M_PI, 0.1);
+}
+
+// A re-track keyframe (the frame before the newest one) gets the keyframe stereo against the
+// frames before it, as every other keyframe does: the frames tracked against it use its depth.
+TEST(Odometry, ARetrackKeyframeGetsTheKeyframeStereo) {
+  OdometryOptions options = KeepTheFirstKeyframe();
+  options.stereo.views = 3;
+  Odometry odometry(External(), options);
+  int promoted = -1;
+  for (int i = 0; i < 60 && promoted < 0; i += 2) {
+    promoted = odometry.Process(Frames()[i]).promoted_keyframe;
+  }
+  ASSERT_GE(promoted, 0) << "tracking against frame 0 never failed";
+  ASSERT_EQ(odometry.keyframes().size(), 2u);
+  const KeyframeRecord& kf = odometry.keyframes()[1];
+  ASSERT_EQ(kf.reason, KeyframeReason::kRetrack);
+  ASSERT_GT(kf.window_scale, 0.0);
+  EXPECT_EQ(kf.stereo.num_views, 3) << "keyframe " << promoted;
+  EXPECT_GT(kf.stereo.num_replaced, 0) << "keyframe " << promoted;
 }
 
 TEST(Odometry, BadInputThrowsAndBooksNothing) {
