@@ -273,9 +273,9 @@ OdometryOptions KeepTheFirstKeyframe() {
   return options;
 }
 
-// Keyframe rules that keep the first keyframe until tracking against it fails (every second
-// frame): the lost frame is re-tracked against the previous frame, which the Odometry makes a
-// keyframe (reason retrack) before booking the frame against it. Nothing is lost.
+// With those rules and every second frame, tracking against frame 0 fails: the lost frame is
+// re-tracked against the previous frame, which the Odometry makes a keyframe (reason retrack)
+// before booking the frame against it. Nothing is lost.
 TEST(Odometry, AFrameLostAgainstTheKeyframeMakesThePreviousFrameAKeyframe) {
   OdometryOptions options = KeepTheFirstKeyframe();
   Odometry odometry(External(), options);
