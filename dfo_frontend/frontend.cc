@@ -23,6 +23,20 @@ struct ReferenceState {
   // The reference's features and its depth source's pyramid (for SetReferenceDepth).
   FeaturePyramid reference_features;
   DepthPyramid reference_depth;
+
+  // The reference `tracker` was just given (Tracker::SetReference): frame `index` at
+  // `world_from_ref`, with the features and depth it was given; nothing tracked against it yet.
+  static ReferenceState Of(const Tracker& tracker, int index, const SE3d& world_from_ref,
+                           const FeaturePyramid& features, const DepthPyramid& depth) {
+    ReferenceState r;
+    r.has_reference = true;
+    r.reference_index = index;
+    r.world_from_ref = world_from_ref;
+    r.reference_parallax_depth = tracker.reference_parallax_depth(0);
+    r.reference_features = features;
+    r.reference_depth = depth;
+    return r;
+  }
 };
 
 // What the frontend remembers between frames.
@@ -171,14 +185,7 @@ TrackedFrame Frontend::Process(const Frame& frame) {
       s.reference.has_reference = false;
       return false;
     }
-    s.reference.has_reference = true;
-    s.reference.reference_index = frame.index;
-    s.reference.world_from_ref = world_from_cam;
-    s.reference.reference_parallax_depth = tracker_.reference_parallax_depth(0);
-    s.reference.frames_since_reference = 0;
-    s.reference.first_rmse = 0.0;
-    s.reference.reference_features = features;
-    s.reference.reference_depth = depth;
+    s.reference = ReferenceState::Of(tracker_, frame.index, world_from_cam, features, depth);
     return true;
   };
 
@@ -359,18 +366,12 @@ bool Frontend::MakeLastFrameReference(KeyframeData* keyframe) {
     }
     const int points = tracker_.SetReference(s.last_features, s.last_depth);
     if (points < MinReferencePoints()) {
-      s.reference.has_reference =
-          false;  // as the internal rule: the next frame restarts from itself
+      // As the internal rule: the next frame restarts from itself.
+      s.reference.has_reference = false;
       return false;
     }
-    s.reference.has_reference = true;
-    s.reference.reference_index = last.index;
-    s.reference.world_from_ref = last.world_from_cam;
-    s.reference.reference_parallax_depth = tracker_.reference_parallax_depth(0);
-    s.reference.frames_since_reference = 0;
-    s.reference.first_rmse = 0.0;
-    s.reference.reference_features = s.last_features;
-    s.reference.reference_depth = s.last_depth;
+    s.reference = ReferenceState::Of(tracker_, last.index, last.world_from_cam, s.last_features,
+                                     s.last_depth);
   }
   if (keyframe != nullptr) {
     keyframe->frame_index = last.index;
