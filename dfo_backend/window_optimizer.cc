@@ -199,6 +199,54 @@ double Quantile(std::vector<double> values, double q) {
   return values[k];
 }
 
+// WindowOptions::stop_step_px: ends a solve when its last accepted step moved the free
+// keyframes' poses by less than the threshold in the image. Reads the parameter blocks, so the
+// solver must run with update_state_every_iteration.
+class SmallStepStop : public ceres::IterationCallback {
+ public:
+  SmallStepStop(const double* poses, size_t num_poses, const std::vector<double>& inverse_depths,
+                double focal_px, double threshold_px)
+      : poses_(poses),
+        num_poses_(num_poses),
+        inverse_depths_(inverse_depths),
+        focal_px_(focal_px),
+        threshold_px_(threshold_px),
+        previous_(poses, poses + num_poses * kPoseAmbientSize) {}
+
+  ceres::CallbackReturnType operator()(const ceres::IterationSummary& summary) override {
+    if (summary.iteration == 0 || !summary.step_is_successful || num_poses_ == 0) {
+      return ceres::SOLVER_CONTINUE;  // a rejected step left the state where it was
+    }
+    double mean_inverse_depth = 0.0;
+    for (double d : inverse_depths_) mean_inverse_depth += d;
+    if (!inverse_depths_.empty()) mean_inverse_depth /= static_cast<double>(inverse_depths_.size());
+    double sum_squared = 0.0;
+    for (size_t i = 0; i < num_poses_; ++i) {
+      const double* now = poses_ + i * kPoseAmbientSize;
+      const double* before = previous_.data() + i * kPoseAmbientSize;
+      const SE3d step = PoseFromParameters(before).Inverse() * PoseFromParameters(now);
+      const double px =
+          focal_px_ * (step.so3().Angle() + step.translation().norm() * mean_inverse_depth);
+      sum_squared += px * px;
+    }
+    last_step_px_ = std::sqrt(sum_squared / static_cast<double>(num_poses_));
+    std::copy(poses_, poses_ + num_poses_ * kPoseAmbientSize, previous_.begin());
+    return last_step_px_ < threshold_px_ ? ceres::SOLVER_TERMINATE_SUCCESSFULLY
+                                         : ceres::SOLVER_CONTINUE;
+  }
+
+  double last_step_px() const { return last_step_px_; }
+
+ private:
+  const double* poses_;
+  size_t num_poses_;
+  const std::vector<double>& inverse_depths_;
+  double focal_px_;
+  double threshold_px_;
+  std::vector<double> previous_;
+  double last_step_px_ = 0.0;
+};
+
 }  // namespace
 
 std::vector<double> WindowZoomLadder(double max_stretch) {
@@ -226,6 +274,8 @@ void WindowOptions::Check() const {
   Require(linear_solver == "sparse_schur" || linear_solver == "dense_schur", "window.linear_solver",
           linear_solver, "one of {sparse_schur, dense_schur}");
   Require(max_iterations >= 1, "window.max_iterations", max_iterations, ">= 1");
+  Require(std::isfinite(stop_step_px) && stop_step_px >= 0.0, "window.stop_step_px", stop_step_px,
+          ">= 0");
   Require(std::isfinite(max_solver_time_s) && max_solver_time_s > 0.0, "window.max_solver_time_s",
           max_solver_time_s, "> 0");
   Require(num_threads >= 1, "window.num_threads", num_threads, ">= 1");
@@ -747,6 +797,17 @@ bool WindowOptimizer::Solve(int max_iterations, double* initial_cost, double* fi
   solver_options.num_threads = options_.num_threads;
   solver_options.logging_type = ceres::SILENT;
   solver_options.minimizer_progress_to_stdout = false;
+  // The oldest keyframe is the gauge; in the coarse warm-up only the newest one moves.
+  const size_t first_free = coarse ? std::max<size_t>(1, num_kf - 1) : 1;
+  const double focal_px =
+      coarse ? keyframes_.back()->coarse.camera.fx : keyframes_.back()->level.camera.fx;
+  SmallStepStop small_step(pose_buffer.data() + first_free * kPoseAmbientSize,
+                           num_kf - std::min(num_kf, first_free), depth_buffer, focal_px,
+                           options_.stop_step_px);
+  if (options_.stop_step_px > 0.0) {
+    solver_options.update_state_every_iteration = true;  // the callback reads the state
+    solver_options.callbacks.push_back(&small_step);
+  }
   ceres::Solver::Summary summary;
   ceres::Solve(solver_options, &problem, &summary);
   *initial_cost = summary.initial_cost;
@@ -754,7 +815,11 @@ bool WindowOptimizer::Solve(int max_iterations, double* initial_cost, double* fi
   if (result != nullptr) {
     // Ceres counts the evaluation at the start as iteration 0.
     result->num_iterations += std::max(0, static_cast<int>(summary.iterations.size()) - 1);
-    if (summary.termination_type != ceres::CONVERGENCE) result->converged = false;
+    if (summary.termination_type != ceres::CONVERGENCE &&
+        summary.termination_type != ceres::USER_SUCCESS) {
+      result->converged = false;
+    }
+    result->last_step_px = small_step.last_step_px();
   }
   // The inverse-depth lower bound is enforced by projection after the solve (as DSO clamps its
   // inverse depths), not by Ceres's bound constraints: with bounds, every LM step becomes a

@@ -133,6 +133,13 @@ struct WindowOptions {
   // keyframe, so few iterations per step add up (DSO: 1-6 Gauss-Newton iterations per keyframe).
   // Measured on 8 synthetic sequences: 2 as accurate as 3 (docs/window.md).
   int max_iterations = 2;
+  // A solve stops when its last accepted Levenberg-Marquardt step moved the keyframes by less
+  // than this in the image: the RMS over the free keyframes of fx * (rotation angle + translation
+  // * mean inverse depth of the window's points), pixels at pyramid_level (DSO's rule, which
+  // compares the rotation and the depth-normalised translation of a step with fixed thresholds,
+  // here in pixels so that it holds at any resolution). 0 = off (only Ceres's tolerances and
+  // max_iterations stop a solve); >= 0.
+  double stop_step_px = 0.0;
   // Wall-time limit of one solve in seconds; > 0.
   double max_solver_time_s = 0.1;
   // Ceres threads; >= 1 (1 gives run-to-run identical results).
@@ -243,9 +250,13 @@ struct WindowResult {
   int num_residual_blocks = 0;
   // Levenberg-Marquardt iterations of this step's solves (both, around the outlier gate), and
   // whether every one of them ended by Ceres's convergence tolerances (function, gradient or
-  // parameter tolerance) rather than at window.max_iterations or the time limit.
+  // parameter tolerance) or by WindowOptions::stop_step_px rather than at
+  // window.max_iterations or the time limit.
   int num_iterations = 0;
   bool converged = false;
+  // Image motion of the last accepted step of the last solve (WindowOptions::stop_step_px's
+  // measure, pixels at pyramid_level); 0 when no step was accepted.
+  double last_step_px = 0.0;
   // Number of blocks the outlier gate dropped.
   int num_gated_blocks = 0;
   // Depth search (WindowOptions::depth_search_range): new points searched, and those that moved

@@ -341,6 +341,11 @@ ConfigSchema BuildSchema() {
            "Levenberg-Marquardt iterations per solve (up to two solves per keyframe)")
       .Min(1)
       .Max(1000);
+  s.AddDouble("window.stop_step_px", 0.0,
+              "A solve stops when its last step moved the keyframes by less than this in the "
+              "image (RMS of fx * (rotation + translation * mean inverse depth), pixels at the "
+              "window's level; DSO's rule); 0 = only Ceres's tolerances and max_iterations")
+      .Min(0);
   s.AddDouble("window.max_solver_time_s", 0.1,
               "Wall-time limit of one solve in seconds (ignored with run.deterministic: true)")
       .GreaterThan(0);

@@ -42,6 +42,7 @@ WindowOptions WindowOptionsFromConfig(const io::Config& config) {
   o.loss_scale = config.GetDouble("window.loss_scale");
   o.linear_solver = config.GetString("window.linear_solver");
   o.max_iterations = config.GetInt("window.max_iterations");
+  o.stop_step_px = config.GetDouble("window.stop_step_px");
   o.max_solver_time_s = config.GetDouble("window.max_solver_time_s");
   o.min_inverse_depth = config.GetDouble("window.min_inverse_depth");
   o.depth_prior_weight = config.GetDouble("window.depth_prior_weight");

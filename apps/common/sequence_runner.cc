@@ -319,7 +319,7 @@ io::JsonValue KeyframesToJson(const SequenceRunResult& result) {
   std::map<std::string, int> reasons;
   int ba_runs = 0, optimized = 0, converged = 0, marginalized = 0, dropped = 0, max_keyframes = 0,
       max_points = 0, max_blocks = 0;
-  std::vector<double> iterations;
+  std::vector<double> iterations, last_steps;
   io::JsonValue failures = io::JsonValue::Array();
   for (const KeyframeRecord& r : result.keyframes) {
     ++reasons[r.reason == KeyframeReason::kNone ? "frontend" : KeyframeReasonName(r.reason)];
@@ -329,6 +329,7 @@ io::JsonValue KeyframesToJson(const SequenceRunResult& result) {
     optimized += r.window.optimized ? 1 : 0;
     converged += r.window.converged ? 1 : 0;
     iterations.push_back(r.window.num_iterations);
+    last_steps.push_back(r.window.last_step_px);
     const bool left = r.window.marginalized_frame_index >= 0;
     marginalized += left && r.window.marginalized_into_prior ? 1 : 0;
     dropped += left && !r.window.marginalized_into_prior ? 1 : 0;
@@ -349,13 +350,14 @@ io::JsonValue KeyframesToJson(const SequenceRunResult& result) {
   k.Set("ba_optimized", optimized);
   k.Set("ba_failed", ba_runs - optimized);
   k.Set("ba_converged", converged);
-  double median_iterations = 0.0;
-  if (!iterations.empty()) {
-    const auto middle = iterations.begin() + iterations.size() / 2;
-    std::nth_element(iterations.begin(), middle, iterations.end());
-    median_iterations = *middle;
-  }
-  k.Set("ba_iterations_median", median_iterations);
+  const auto median = [](std::vector<double> values) {
+    if (values.empty()) return 0.0;
+    const auto middle = values.begin() + values.size() / 2;
+    std::nth_element(values.begin(), middle, values.end());
+    return *middle;
+  };
+  k.Set("ba_iterations_median", median(iterations));
+  k.Set("ba_last_step_px_median", median(last_steps));
   k.Set("marginalized", marginalized);
   k.Set("dropped", dropped);
   k.Set("max_window_keyframes", max_keyframes);

@@ -243,9 +243,11 @@ RunEvaluation EvaluateEstimate(const SequenceRunResult& result, const Trajectory
 //   "keyframes": {"count", "reasons": {reason: count} ("frontend" for the frontend's own
 //               switches), "ba_runs" (keyframes with a solve: two or more in the window),
 //               "ba_optimized", "ba_failed" (solves whose result was not kept),
-//               "ba_converged" (steps whose solves all ended by Ceres's convergence tolerances,
-//               not at window.max_iterations), "ba_iterations_median" (Levenberg-Marquardt
-//               iterations per step, both solves),
+//               "ba_converged" (steps whose solves all ended by Ceres's convergence tolerances
+//               or window.stop_step_px, not at window.max_iterations), "ba_iterations_median"
+//               (Levenberg-Marquardt iterations per step, both solves), "ba_last_step_px_median"
+//               (image motion of each step's last accepted LM step, window.stop_step_px's
+//               measure),
 //               "marginalized" (keyframes whose information went into the marginalisation prior),
 //               "dropped" (keyframes that left the window without: backend.marginalization false or
 //               a rejected prior), "max_window_keyframes", "max_points", "max_residual_blocks",

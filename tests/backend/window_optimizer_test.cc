@@ -192,6 +192,43 @@ TEST(WindowOptimizerTest, StepsReportIterationsAndConvergence) {
   }
 }
 
+// window.stop_step_px ends a solve once its steps move the keyframes by less than the threshold
+// in the image: from the same perturbed poses it reports convergence after fewer iterations than
+// a solve left to Ceres's tolerances (which here runs into the 50-iteration cap, creeping along
+// a flat valley), and its poses are as close to the truth (measured: 21 against 75 iterations,
+// 0.231 against 0.237 m).
+TEST(WindowOptimizerTest, SmallStepRuleEndsSolvesWhereTheToleranceWould) {
+  std::vector<WindowResult> results;
+  for (const double stop_step_px : {0.0, 0.05}) {
+    WindowOptions options = TestOptions();
+    options.max_iterations = 50;
+    options.stop_step_px = stop_step_px;
+    WindowOptimizer window(options);
+    std::mt19937 rng(1);
+    for (int index = 0; index <= 6; index += 3) {
+      KeyframeData kf = test::MakeSyntheticKeyframe(Sequence(), index, 2, 0.05);
+      if (index > 0) kf.world_from_cam = Perturb(kf.world_from_cam, 0.05, 0.01, &rng);
+      results.push_back(window.AddKeyframe(std::move(kf)));
+    }
+    ASSERT_TRUE(results.back().optimized) << results.back().message;
+  }
+  const WindowResult& tolerance = results[2];
+  const WindowResult& small_step = results[5];
+  ASSERT_EQ(small_step.keyframe_poses.size(), tolerance.keyframe_poses.size());
+  const PoseErrors e_tolerance = Errors(tolerance.keyframe_poses);
+  const PoseErrors e_small_step = Errors(small_step.keyframe_poses);
+  std::cout << "iterations " << small_step.num_iterations << " against " << tolerance.num_iterations
+            << "; error " << e_small_step.max_trans_m << " m " << e_small_step.max_rot_deg
+            << " deg against " << e_tolerance.max_trans_m << " m " << e_tolerance.max_rot_deg
+            << " deg\n";
+  EXPECT_TRUE(small_step.converged);
+  EXPECT_LT(small_step.num_iterations, tolerance.num_iterations);
+  EXPECT_GT(small_step.last_step_px, 0.0);
+  EXPECT_LT(small_step.last_step_px, 0.05);
+  EXPECT_LT(e_small_step.max_trans_m, 1.1 * e_tolerance.max_trans_m);
+  EXPECT_LT(e_small_step.max_rot_deg, 1.1 * e_tolerance.max_rot_deg);
+}
+
 // The default scale gate (max_patch_stretch 1.5) leaves out the near points' long links, the
 // strongest parallax, so its basin is narrower: measured, it returns from 0.75 x the
 // perturbation above and not from 1 x (0.92 deg, 0.27 m after). Half of it must work.
