@@ -296,6 +296,18 @@ void Odometry::SubmitToWindow(const TrackedFrame& t, KeyframeData* given) {
   pending_ = std::move(pending);
 }
 
+SE3d Odometry::FollowerPose(const LeftKeyframe& l) const {
+  if (l.older < 0 && l.newer < 0) return poses_.WindowedPose(l.frame_index);
+  if (l.older < 0) return poses_.WindowedPose(l.newer) * l.newer_from_left;
+  const SE3d from_older = poses_.WindowedPose(l.older) * l.older_from_left;
+  if (l.newer < 0) return from_older;
+  const SE3d from_newer = poses_.WindowedPose(l.newer) * l.newer_from_left;
+  // Weighted by the distance in frames: the nearer neighbour's move counts more.
+  const double w =
+      static_cast<double>(l.frame_index - l.older) / static_cast<double>(l.newer - l.older);
+  return from_older * SE3d::Exp(w * (from_older.Inverse() * from_newer).Log());
+}
+
 int Odometry::ApplyPendingSolve(bool wait) {
   if (!pending_) return -1;
   if (!wait && pending_->result.wait_for(std::chrono::seconds(0)) != std::future_status::ready) {
@@ -323,10 +335,28 @@ int Odometry::ApplyPendingSolve(bool wait) {
     for (const auto& [index, pose] : kf->window.keyframe_poses) {
       if (reported(index)) poses_.SetWindowedPose(index, pose);
     }
-    if (kf->window.marginalized_frame_index >= 0 && IsFinitePose(kf->window.marginalized_pose) &&
-        reported(kf->window.marginalized_frame_index)) {
-      poses_.SetWindowedPose(kf->window.marginalized_frame_index, kf->window.marginalized_pose);
+    const int left = kf->window.marginalized_frame_index;
+    if (left >= 0 && IsFinitePose(kf->window.marginalized_pose) && reported(left)) {
+      poses_.SetWindowedPose(left, kf->window.marginalized_pose);
+      // It goes on following the window keyframes next to it (file comment of odometry.h).
+      LeftKeyframe follower;
+      follower.frame_index = left;
+      const SE3d left_pose = poses_.WindowedPose(left);
+      for (const auto& [index, pose] : kf->window.keyframe_poses) {
+        if (index < left) {
+          follower.older = index;
+          follower.older_from_left = poses_.WindowedPose(index).Inverse() * left_pose;
+        } else if (index > left && follower.newer < 0) {
+          follower.newer = index;
+          follower.newer_from_left = poses_.WindowedPose(index).Inverse() * left_pose;
+        }
+      }
+      left_.push_back(follower);
     }
+    left_.erase(std::remove_if(left_.begin(), left_.end(),
+                               [&](const LeftKeyframe& l) { return !reported(l.frame_index); }),
+                left_.end());
+    for (const LeftKeyframe& l : left_) poses_.SetWindowedPose(l.frame_index, FollowerPose(l));
   } else if (kf->window.optimized) {
     kf->window.optimized = false;
     kf->window.message = "non-finite keyframe pose after the solve; poses not taken";

@@ -26,12 +26,15 @@
 //
 // Reported poses. A keyframe's windowed pose (and with it every frame tracked against it) follows
 // the window's solves while the keyframe is one of the newest window.max_keyframes keyframes, and
-// is then kept. DSO's marginalisation rule keeps a keyframe whose points the newest keyframe
-// still sees; on a car moving forward, far points keep some keyframes in the window for over 100
-// frames, and the window's scale drift moves them metres away from the keyframes around them,
-// which had left at the usual age. Reporting every keyframe from the solves of the same age keeps
-// the trajectory free of such jumps (KITTI 03: the largest frame steps 6.2x the median step at the
-// 99th percentile, 10.7x when old keyframes followed the window; docs/window.md). The window
+// is then kept; a keyframe that leaves the window earlier follows the window keyframes next to it
+// (the nearest older and newer ones, by its pose relative to each when it left, interpolated by
+// frame index) until it reaches that age, so that neighbours that leave at different ages do not
+// tear the trajectory apart. DSO's marginalisation rule keeps a keyframe whose points the newest
+// keyframe still sees; on a car moving forward, far points keep some keyframes in the window for
+// over 100 frames, and the window's scale drift moves them metres away from the keyframes around
+// them, which had left at the usual age. Reporting every keyframe from the solves of the same age
+// keeps the trajectory free of such jumps (KITTI 03: the largest frame steps 6.2x the median step
+// at the 99th percentile, 10.7x when old keyframes followed the window; docs/window.md). The window
 // itself, the tracking and the poses of new keyframes use the window's current estimates.
 //
 // The frontend-only trajectory composes the same frame-to-keyframe poses on the frontend's own
@@ -247,6 +250,20 @@ class Odometry {
   std::deque<RecentFrame> recent_;
   // Every keyframe's window_scale > 0 so far (TrackingDepthOptions::source_scale "run_median").
   std::vector<double> window_scales_;
+  // Keyframes that left the window while their poses are still reported: each follows the
+  // window keyframes next to it (the nearest older and newer ones when it left), as the frames
+  // tracked against a keyframe follow it.
+  struct LeftKeyframe {
+    int frame_index = 0;
+    int older = -1;  // -1: none
+    SE3d older_from_left;
+    int newer = -1;
+    SE3d newer_from_left;
+  };
+  std::vector<LeftKeyframe> left_;
+  // The pose of `l` from its neighbours' windowed poses now: from each neighbour by the relative
+  // pose when it left, interpolated on SE(3) by frame index between the two.
+  SE3d FollowerPose(const LeftKeyframe& l) const;
 };
 
 }  // namespace dfo
