@@ -356,7 +356,11 @@ int Odometry::ApplyPendingSolve(bool wait) {
     left_.erase(std::remove_if(left_.begin(), left_.end(),
                                [&](const LeftKeyframe& l) { return !reported(l.frame_index); }),
                 left_.end());
-    for (const LeftKeyframe& l : left_) poses_.SetWindowedPose(l.frame_index, FollowerPose(l));
+    for (const LeftKeyframe& l : left_) {
+      if (l.frame_index == left) continue;  // where the solve left it
+      poses_.SetWindowedPose(l.frame_index, FollowerPose(l));
+      kf->followers.push_back(l.frame_index);
+    }
   } else if (kf->window.optimized) {
     kf->window.optimized = false;
     kf->window.message = "non-finite keyframe pose after the solve; poses not taken";

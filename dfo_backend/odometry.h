@@ -144,6 +144,9 @@ struct KeyframeRecord {
   // the windowed trajectory (TrackingDepthOptions::rescale_source_steps), set at the keyframe's
   // solve; 0: none (option off, no solve, too few window points, or no frame needs it).
   double step_scale = 0.0;
+  // Keyframes that had left the window and whose reported poses this solve moved, with the
+  // window keyframes next to them ("Reported poses" above), oldest first.
+  std::vector<int> followers;
 };
 
 // Position in `records` of the record of keyframe `frame_index`, searched from the newest;

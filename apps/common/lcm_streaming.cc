@@ -145,6 +145,7 @@ void LcmRunStreamer::PublishKeyframeBatch(int keyframe_index, const SequenceRunR
   };
   for (const auto& [index, pose] : kf->window.keyframe_poses) add(index, true);
   if (kf->window.marginalized_frame_index >= 0) add(kf->window.marginalized_frame_index, false);
+  for (int index : kf->followers) add(index, false);
   batch.num_keyframes = static_cast<int32_t>(batch.keyframes.size());
   publisher_.Publish(options_.channels.keyframes, batch);
 

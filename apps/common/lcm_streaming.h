@@ -19,7 +19,8 @@
 //                      itself when it became a keyframe; an earlier keyframe with
 //                      run.backend_thread): a dfo.keyframe_batch_t (frame_index: that keyframe)
 //                      with every window keyframe's windowed pose after the bundle adjustment
-//                      (and the keyframe that left, in_window = false);
+//                      (and, in_window = false, the keyframe that left and those that left
+//                      earlier and moved with their window neighbours);
 //   status_channel     a dfo.run_status_t (frames done, fps so far, keyframes, lost).
 // Finish publishes a last status and one dfo.stop_t. The same messages go to lcm.url
 // (lcm.enable) and into the event log lcm.log_path (when set).
