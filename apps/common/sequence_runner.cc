@@ -106,6 +106,7 @@ void RefreshKeyframe(const Odometry& odometry, int frame_index, const SequenceRu
   for (auto f = result->frames.rbegin(); f != result->frames.rend(); ++f) {
     if (f->tracked.index != frame_index) continue;
     f->windowed_step_scale = kf.step_scale;
+    f->keyframe_solve = KeyframeSolveName(kf);
     break;
   }
   if (kf.ba_ran && !kf.window.optimized && kf.window.keyframe_poses.size() >= 2 &&
@@ -199,6 +200,7 @@ SequenceRunResult RunSequence(const FrameProvider& provider, Odometry* odometry,
           previous.keyframe_source_scale = kf.source_scale;
           previous.windowed_step_scale = kf.step_scale;
           if (kf.stereo.num_views > 0) previous.keyframe_stereo_fraction = kf.stereo.fraction;
+          previous.keyframe_solve = KeyframeSolveName(kf);
         }
         result.keyframes.push_back(kf);
       }
@@ -210,6 +212,7 @@ SequenceRunResult RunSequence(const FrameProvider& provider, Odometry* odometry,
           record.keyframe_source_scale = kf.source_scale;
           record.windowed_step_scale = kf.step_scale;
           if (kf.stereo.num_views > 0) record.keyframe_stereo_fraction = kf.stereo.fraction;
+          record.keyframe_solve = KeyframeSolveName(kf);
         }
       }
       if (out.solved_keyframe >= 0)
@@ -523,7 +526,14 @@ std::string FramesCsvHeader() {
   return "index,timestamp_s,status,reference_index,new_reference,num_points,num_inliers,rmse,"
          "iterations,keyframe,keyframe_reason,load_ms,features_ms,depth_ms,tracking_ms,backend_ms,"
          "total_ms,tracking_depth,keyframe_depth_scale,lost_cause,windowed_step_scale,"
-         "keyframe_stereo_fraction,keyframe_source_scale\n";
+         "keyframe_stereo_fraction,keyframe_source_scale,keyframe_solve\n";
+}
+
+std::string KeyframeSolveName(const KeyframeRecord& keyframe) {
+  const WindowResult& w = keyframe.window;
+  if (!keyframe.ba_ran) return "";
+  if (!w.optimized) return w.keyframe_poses.size() >= 2 ? "kept_previous" : "";
+  return w.converged ? "converged" : "iteration_limit";
 }
 
 std::string FramesCsvLine(const FrameRecord& f) {
@@ -544,7 +554,7 @@ std::string FramesCsvLine(const FrameRecord& f) {
          (f.windowed_step_scale > 0.0 ? Csv(f.windowed_step_scale, 6) : std::string()) + "," +
          (f.keyframe_stereo_fraction >= 0.0 ? Csv(f.keyframe_stereo_fraction, 4) : std::string()) +
          "," + (f.keyframe_source_scale > 0.0 ? Csv(f.keyframe_source_scale, 6) : std::string()) +
-         "\n";
+         "," + f.keyframe_solve + "\n";
 }
 
 void WriteFramesCsv(const std::string& path, const SequenceRunResult& result) {

@@ -159,6 +159,10 @@ struct FrameRecord {
   // Keyframes with a window: the factor their depth map entered it at
   // (KeyframeRecord::source_scale, window.source_scale); 0 otherwise.
   double keyframe_source_scale = 0.0;
+  // Keyframes whose window solve has been applied: KeyframeSolveName of their record
+  // ("converged", "iteration_limit" or "kept_previous"); "" otherwise (no window, nothing to
+  // solve yet, or the solve still running on the backend thread).
+  std::string keyframe_solve;
   // How the pose store holds the frame before it may become a keyframe: relative to keyframe
   // pose_keyframe_index with kf_from_cam (-1: kf_from_cam is the absolute pose; a frame that
   // became a keyframe by itself, e.g. a restart, keeps -1).
@@ -301,6 +305,12 @@ std::vector<std::string> RemoveRunOutputs(const std::string& output_dir);
 void WriteFramesCsv(const std::string& path, const SequenceRunResult& result);
 // frames.csv's header line and one frame's line (each with its '\n').
 std::string FramesCsvHeader();
+// frames.csv's keyframe_solve for a keyframe's record: "converged" (every solve of the step ended
+// by Ceres's tolerances or window.stop_step_px), "iteration_limit" (kept, but a solve stopped at
+// window.max_iterations or the time limit), "kept_previous" (a solve failed or diverged and the
+// window kept its state from before it: WindowResult::message says why); "" when no solve ran
+// (no window, or the first keyframe alone in it).
+std::string KeyframeSolveName(const KeyframeRecord& keyframe);
 std::string FramesCsvLine(const FrameRecord& frame);
 
 // The per-frame files of a run written as it goes, so that a run killed (SIGKILL, power loss)

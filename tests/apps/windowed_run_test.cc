@@ -197,6 +197,20 @@ TEST(WindowedRun, NanKeyframeDataDoesNotStopTheRun) {
     ++lines;
   }
   EXPECT_EQ(lines, failed) << text;
+  // frames.csv says which keyframes kept the previous state, and the other solves' outcome.
+  int kept_previous = 0, solved = 0;
+  for (const apps::FrameRecord& f : r.frames) {
+    const std::string line = apps::FramesCsvLine(f);
+    EXPECT_EQ(line.substr(line.rfind(',') + 1), f.keyframe_solve + "\n");
+    if (!f.keyframe) {
+      EXPECT_EQ(f.keyframe_solve, "") << "frame " << f.tracked.index;
+      continue;
+    }
+    kept_previous += f.keyframe_solve == "kept_previous" ? 1 : 0;
+    solved += f.keyframe_solve == "converged" || f.keyframe_solve == "iteration_limit" ? 1 : 0;
+  }
+  EXPECT_EQ(kept_previous, failed);
+  EXPECT_GE(solved, 1);
   // The keyframes with NaN features are refused by the window and the log says so.
   EXPECT_GE(failed, 1);
   EXPECT_NE(text.find("feature values at pyramid level"), std::string::npos) << text;
