@@ -93,6 +93,15 @@ int SequenceRunResult::CountStatus(TrackingStatus status) const {
 
 namespace {
 
+// The window's figures of keyframe `kf` in the record of its frame.
+void BookKeyframeWindow(const KeyframeRecord& kf, FrameRecord* f) {
+  f->keyframe_depth_scale = kf.window_scale;
+  f->keyframe_source_scale = kf.source_scale;
+  f->windowed_step_scale = kf.step_scale;
+  if (kf.stereo.num_views > 0) f->keyframe_stereo_fraction = kf.stereo.fraction;
+  f->keyframe_solve = KeyframeSolveName(kf);
+}
+
 // Copies the record of keyframe `frame_index` once its window solve was applied, and logs a solve
 // that was not kept.
 void RefreshKeyframe(const Odometry& odometry, int frame_index, const SequenceRunOptions& options,
@@ -109,8 +118,7 @@ void RefreshKeyframe(const Odometry& odometry, int frame_index, const SequenceRu
     f->keyframe_solve = KeyframeSolveName(kf);
     break;
   }
-  if (kf.ba_ran && !kf.window.optimized && kf.window.keyframe_poses.size() >= 2 &&
-      options.log_stream != nullptr) {
+  if (KeyframeSolveName(kf) == "kept_previous" && options.log_stream != nullptr) {
     std::fprintf(options.log_stream,
                  "%s: warning: bundle adjustment at keyframe %d kept the previous window "
                  "state: %s\n",
@@ -195,25 +203,13 @@ SequenceRunResult RunSequence(const FrameProvider& provider, Odometry* odometry,
         FrameRecord& previous = result.frames.back();
         previous.keyframe = true;
         previous.keyframe_reason = kf.reason;
-        if (odometry->has_window()) {
-          previous.keyframe_depth_scale = kf.window_scale;
-          previous.keyframe_source_scale = kf.source_scale;
-          previous.windowed_step_scale = kf.step_scale;
-          if (kf.stereo.num_views > 0) previous.keyframe_stereo_fraction = kf.stereo.fraction;
-          previous.keyframe_solve = KeyframeSolveName(kf);
-        }
+        if (odometry->has_window()) BookKeyframeWindow(kf, &previous);
         result.keyframes.push_back(kf);
       }
       if (out.keyframe) {
         const KeyframeRecord& kf = odometry->keyframes().back();
         result.keyframes.push_back(kf);
-        if (odometry->has_window()) {
-          record.keyframe_depth_scale = kf.window_scale;
-          record.keyframe_source_scale = kf.source_scale;
-          record.windowed_step_scale = kf.step_scale;
-          if (kf.stereo.num_views > 0) record.keyframe_stereo_fraction = kf.stereo.fraction;
-          record.keyframe_solve = KeyframeSolveName(kf);
-        }
+        if (odometry->has_window()) BookKeyframeWindow(kf, &record);
       }
       if (out.solved_keyframe >= 0)
         RefreshKeyframe(*odometry, out.solved_keyframe, options, &result);
