@@ -4,6 +4,9 @@
 //   dfo_eval depth --gt DIR --pred DIR [options]   AbsRel, SqRel, RMSE, RMSE log, delta < 1.25^k
 //   dfo_eval stereo-depth --path ROOT --output DIR  reference depth of real frames from their
 //                                                    ground-truth poses (plane-sweep stereo)
+//   dfo_eval keyframe-depth --folder DIR --gt DIR   a run's keyframe depth (dfo_run
+//                                                    run.write_keyframe_depth) against reference
+//                                                    depth maps
 //
 // Figures follow evo (ATE/RPE), the KITTI devkit (t_rel, r_rel), SfMLearner (snippet ATE) and
 // Monodepth2 (depth); see dfo_core/metrics.h and dfo_core/depth_metrics.h. Errors print one line
@@ -24,6 +27,7 @@
 
 #include "apps/common/args.h"
 #include "apps/common/evaluation.h"
+#include "apps/common/keyframe_depth_export.h"
 #include "apps/common/progress.h"
 #include "dfo_core/alignment.h"
 #include "dfo_core/depth_metrics.h"
@@ -35,6 +39,7 @@
 #include "dfo_io/file_writer.h"
 #include "dfo_io/image_io.h"
 #include "dfo_io/json.h"
+#include "dfo_io/keyframe_depth_io.h"
 #include "dfo_io/plot.h"
 #include "dfo_io/trajectory_io.h"
 
@@ -51,6 +56,8 @@ constexpr const char* kMainHelp =
     "  traj    evaluate an estimated trajectory against ground truth (ATE, RPE, KITTI, snippet)\n"
     "  depth   evaluate predicted depth maps against ground truth (AbsRel, RMSE, delta, ...)\n"
     "  stereo-depth  reference depth maps of real frames from their ground-truth poses\n"
+    "  keyframe-depth  a run's keyframe depth (dfo_run run.write_keyframe_depth) against\n"
+    "                  reference depth maps\n"
     "\n"
     "`dfo_eval <command> --help` lists the options of a command.\n";
 
@@ -96,6 +103,26 @@ constexpr const char* kDepthHelp =
     "                         valid pixels), their ratio, abs_rel, rmse_log, a1 (errors after\n"
     "                         median scaling when it is asked for); an image without valid\n"
     "                         ground truth has pixels 0 and empty fields\n"
+    "  --json                 print one JSON object on stdout instead of text\n"
+    "  --help                 this text\n";
+
+constexpr const char* kKeyframeDepthHelp =
+    "usage: dfo_eval keyframe-depth --folder DIR --gt DIR [options]\n"
+    "\n"
+    "How close the depth of a run's keyframe points (the folder of dfo_run\n"
+    "--set run.write_keyframe_depth=DIR) is to reference depth maps: --gt DIR/<image name>.png\n"
+    "for each keyframe's image (16-bit, metres x --gt-scale, 0 = none, any size), e.g. the\n"
+    "depth_0 folder of a synthetic sequence or the output of dfo_eval stereo-depth; keyframes\n"
+    "without a map are skipped. The estimates are scaled by one factor for the whole run (the\n"
+    "median ratio over all points: a monocular run's scale is arbitrary, but one) and, beside\n"
+    "it, by each keyframe's own median; the same for the depths the points started at (the\n"
+    "depth source's map, scaled), so that the two say whether the window improved on its\n"
+    "source.\n"
+    "\n"
+    "options:\n"
+    "  --gt-scale S           reference PNG value per metre (default 256; TUM: 5000)\n"
+    "  --min-depth M          reference depths above this count (default 0.001)\n"
+    "  --max-depth M          reference depths below this count (default 80)\n"
     "  --json                 print one JSON object on stdout instead of text\n"
     "  --help                 this text\n";
 
@@ -494,6 +521,70 @@ std::pair<int, int> ParseRange(const std::string& key, const std::string& text) 
   throw UsageError("option " + key + " = '" + text + "' is not a range A-B with 0 <= A <= B");
 }
 
+int RunKeyframeDepth(int argc, char** argv) {
+  if (WantsHelp(argc, argv)) {
+    std::cout << kKeyframeDepthHelp;
+    return 0;
+  }
+  const Options opt("keyframe-depth", argc, argv,
+                    {"--folder", "--gt", "--gt-scale", "--min-depth", "--max-depth"}, {"--json"});
+  const std::string folder_dir = opt.Required("--folder");
+  const std::string gt_dir = opt.Required("--gt");
+  const double gt_scale = opt.Number("--gt-scale", 256.0);
+  const double min_depth = opt.Number("--min-depth", 1e-3);
+  const double max_depth = opt.Number("--max-depth", 80.0);
+  if (!(gt_scale > 0.0)) throw UsageError("--gt-scale must be > 0");
+  if (!(min_depth > 0.0) || !(max_depth > min_depth)) {
+    throw UsageError("--min-depth must be > 0 and below --max-depth");
+  }
+  std::error_code ec;
+  if (!std::filesystem::is_directory(gt_dir, ec)) {
+    throw InputError("reference depth folder not found: " + gt_dir);
+  }
+  const io::KeyframeDepthFolder folder = io::ReadKeyframeDepthFolder(folder_dir);
+  const apps::KeyframeDepthCheck c =
+      apps::CheckKeyframeDepth(folder, gt_dir, gt_scale, min_depth, max_depth);
+  if (opt.Has("--json")) {
+    io::JsonValue out = io::JsonValue::Object();
+    out.Set("keyframes", static_cast<int64_t>(c.keyframes));
+    out.Set("keyframes_without_reference", static_cast<int64_t>(c.keyframes_without_reference));
+    out.Set("points", static_cast<int64_t>(c.points));
+    out.Set("run_scale", c.run_scale);
+    out.Set("abs_rel_run_scale", c.abs_rel_run_scale);
+    out.Set("abs_rel_keyframe_scale", c.abs_rel_keyframe_scale);
+    out.Set("a1_run_scale", c.a1_run_scale);
+    out.Set("keyframe_scale_cv", c.keyframe_scale_cv);
+    out.Set("start_abs_rel_run_scale", c.start_abs_rel_run_scale);
+    out.Set("start_abs_rel_keyframe_scale", c.start_abs_rel_keyframe_scale);
+    io::JsonValue bins = io::JsonValue::Array();
+    const char* names[3] = {"1", "2-3", "4+"};
+    for (int b = 0; b < 3; ++b) {
+      io::JsonValue bin = io::JsonValue::Object();
+      bin.Set("observations", names[b]);
+      bin.Set("points", static_cast<int64_t>(c.points_by_observations[b]));
+      bin.Set("abs_rel_run_scale", c.abs_rel_by_observations[b]);
+      bins.Push(std::move(bin));
+    }
+    out.Set("by_observations", std::move(bins));
+    std::cout << out.Dump() << "\n";
+    return 0;
+  }
+  std::cout << "keyframes: " << c.keyframes << " with a reference map ("
+            << c.keyframes_without_reference << " without), " << c.points << " points\n"
+            << "abs_rel, one scale for the run (x" << Fixed(c.run_scale, 4)
+            << "): " << Fixed(c.abs_rel_run_scale, 4) << " (start depth "
+            << Fixed(c.start_abs_rel_run_scale, 4) << "), a1 " << Fixed(c.a1_run_scale, 4) << "\n"
+            << "abs_rel, each keyframe's own scale: " << Fixed(c.abs_rel_keyframe_scale, 4)
+            << " (start depth " << Fixed(c.start_abs_rel_keyframe_scale, 4)
+            << "); keyframe scale cv " << Fixed(c.keyframe_scale_cv, 4) << "\n"
+            << "abs_rel (run scale) by observations: 1: " << Fixed(c.abs_rel_by_observations[0], 4)
+            << " (" << c.points_by_observations[0]
+            << " points), 2-3: " << Fixed(c.abs_rel_by_observations[1], 4) << " ("
+            << c.points_by_observations[1] << "), 4+: " << Fixed(c.abs_rel_by_observations[2], 4)
+            << " (" << c.points_by_observations[2] << ")\n";
+  return 0;
+}
+
 int RunStereoDepth(int argc, char** argv) {
   if (WantsHelp(argc, argv)) {
     std::cout << kStereoDepthHelp;
@@ -642,7 +733,8 @@ int RunStereoDepth(int argc, char** argv) {
 
 int main(int argc, char** argv) {
   if (argc < 2) {
-    std::cerr << "dfo_eval: error: no command given, expected traj, depth or stereo-depth (see "
+    std::cerr << "dfo_eval: error: no command given, expected traj, depth, stereo-depth or "
+                 "keyframe-depth (see "
                  "dfo_eval --help)\n";
     return 2;
   }
@@ -655,8 +747,9 @@ int main(int argc, char** argv) {
     if (command == "traj") return dfo::RunTraj(argc - 2, argv + 2);
     if (command == "depth") return dfo::RunDepth(argc - 2, argv + 2);
     if (command == "stereo-depth") return dfo::RunStereoDepth(argc - 2, argv + 2);
+    if (command == "keyframe-depth") return dfo::RunKeyframeDepth(argc - 2, argv + 2);
     std::cerr << "dfo_eval: error: unknown command '" << command
-              << "', expected traj, depth or stereo-depth (see dfo_eval --help)\n";
+              << "', expected traj, depth, stereo-depth or keyframe-depth (see dfo_eval --help)\n";
     return 2;
   } catch (const dfo::UsageError& e) {
     std::cerr << "dfo_eval " << command << ": error: " << e.what() << " (see dfo_eval " << command

@@ -27,6 +27,7 @@
 #include "apps/common/cli.h"
 #include "apps/common/evaluation.h"
 #include "apps/common/frontend_config.h"
+#include "apps/common/keyframe_depth_export.h"
 #include "apps/common/lcm_streaming.h"
 #include "apps/common/progress.h"
 #include "apps/common/run_stats.h"
@@ -294,6 +295,13 @@ int Run(const Args& args) {
   const apps::RunMode mode = odometry_options.mode;
   // Before anything is loaded or written (the Odometry constructor checks it again).
   odometry_options.CheckAgainst(frontend_options.tracker);
+  const std::string keyframe_depth_dir = config.GetString("run.write_keyframe_depth");
+  if (!keyframe_depth_dir.empty() && mode == apps::RunMode::kFrontend) {
+    throw ConfigError("run.write_keyframe_depth = " + keyframe_depth_dir + " (" +
+                      config.Source("run.write_keyframe_depth") +
+                      ") needs the window's points, and run.mode = frontend runs no window: "
+                      "use run.mode windowed or both");
+  }
   // The ground-truth depth source needs the dataset's depth maps loaded with the images.
   if (frontend_options.depth == "gt") dataset.depth = true;
   io::Sequence sequence = io::OpenSequence(dataset);
@@ -385,6 +393,7 @@ int Run(const Args& args) {
 
   const std::string output_dir = config.GetString("run.output_dir");
   io::CreateFolder(output_dir, "output folder");
+  if (!keyframe_depth_dir.empty()) io::CreateFolder(keyframe_depth_dir, "keyframe depth folder");
   // A reused folder: the outputs of an earlier run (perhaps of another run.mode) go first.
   const std::vector<std::string> stale = apps::RemoveRunOutputs(output_dir);
   // Written first, so that even a run that fails half-way can be repeated.
@@ -461,8 +470,16 @@ int Run(const Args& args) {
   result.stop_signals = g_stop_signals.load();
   result.memory_estimate_mib = memory.total_mib;
   if (streamer) streamer->Finish(result);
-  const apps::RunOutputs outputs = apps::WriteRunOutputs(
+  apps::RunOutputs outputs = apps::WriteRunOutputs(
       result, output_dir, config.GetBool("run.plot") && g_stop_signals.load() < 2);
+  if (!keyframe_depth_dir.empty()) {
+    try {
+      io::WriteKeyframeDepthFolder(keyframe_depth_dir, apps::KeyframeDepthOfRun(result, sequence));
+      outputs.files.push_back(keyframe_depth_dir + "/ (keyframe depth)");
+    } catch (const std::exception& e) {
+      outputs.incomplete.push_back(keyframe_depth_dir + ": " + e.what());
+    }
+  }
 
   const int lost = result.CountStatus(TrackingStatus::kLost);
   std::cout << "frames:      " << result.frames.size() << " of " << result.frames_in_sequence

@@ -319,6 +319,11 @@ int Odometry::ApplyPendingSolve(bool wait) {
   KeyframeRecord* kf = &keyframes_[position];
   kf->window = pending->result.get();  // rethrows what AddKeyframe threw
   kf->ba_ran = true;
+  if (kf->window.marginalized_frame_index >= 0) {
+    const int at = FindKeyframeRecord(keyframes_, kf->window.marginalized_frame_index);
+    if (at >= 0) keyframes_[at].settled_points = std::move(kf->window.marginalized_points);
+    kf->window.marginalized_points.clear();
+  }
   // From the hand-over to the end of the solve (not to this call, which with the backend thread
   // may come frames later).
   kf->backend_ms = MsBetween(pending->start, pending->finished);
@@ -433,6 +438,15 @@ void Odometry::ChooseTrackingDepth(const PendingSolve& pending,
   }
 }
 
-int Odometry::Flush() { return ApplyPendingSolve(/*wait=*/true); }
+int Odometry::Flush() {
+  const int solved = ApplyPendingSolve(/*wait=*/true);
+  if (window_) {
+    for (const auto& [index, pose] : window_->KeyframePoses()) {
+      const int at = FindKeyframeRecord(keyframes_, index);
+      if (at >= 0) keyframes_[at].settled_points = window_->HostedPoints(index);
+    }
+  }
+  return solved;
+}
 
 }  // namespace dfo

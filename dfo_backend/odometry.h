@@ -147,6 +147,10 @@ struct KeyframeRecord {
   // Keyframes that had left the window and whose reported poses this solve moved, with the
   // window keyframes next to them ("Reported poses" above), oldest first.
   std::vector<int> followers;
+  // The window's points hosted by this keyframe as they were when it left the window (moved
+  // here from window.marginalized_points of the solve it left in), or, for a keyframe still in
+  // the window, as of the last Flush(); empty before either, and without a window.
+  std::vector<SettledPoint> settled_points;
 };
 
 // Position in `records` of the record of keyframe `frame_index`, searched from the newest;
@@ -195,7 +199,9 @@ class Odometry {
   // (with the backend thread, an error of an earlier keyframe's solve is rethrown here).
   OdometryFrame Process(const Frame& frame);
   // Waits for a solve still running on the backend thread and applies it; returns its keyframe's
-  // frame index (-1: none). Call it after the last frame, before reading the results.
+  // frame index (-1: none). Then copies the points of the keyframes still in the window into
+  // their records (KeyframeRecord::settled_points). Call it after the last frame, before reading
+  // the results.
   int Flush();
 
   // Every processed frame's pose relative to its keyframe, both trajectories.

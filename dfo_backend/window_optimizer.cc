@@ -347,6 +347,7 @@ struct WindowOptimizer::PointState {
   int x = 0, y = 0;  // pixel at the BA level
   double inverse_depth = 0.0;
   double prior_inverse_depth = 0.0;  // from the keyframe's depth
+  double start_inverse_depth = 0.0;  // where it entered the window
   std::shared_ptr<const std::vector<double>> patch;
   // FeatureMetricCost's depth shape (WindowOptions::patch_depth_shape); null: fronto-parallel.
   std::shared_ptr<const std::vector<double>> depth_shape;
@@ -394,6 +395,35 @@ std::vector<WindowOptimizer::PointInfo> WindowOptimizer::Points() const {
   std::vector<PointInfo> out;
   for (const auto& p : points_) {
     out.push_back({FindKeyframe(p->host_id)->frame_index, p->x, p->y, p->inverse_depth});
+  }
+  return out;
+}
+
+std::vector<SettledPoint> WindowOptimizer::HostedPoints(int frame_index) const {
+  std::vector<SettledPoint> out;
+  const KeyframeState* host = nullptr;
+  for (const auto& kf : keyframes_) {
+    if (kf->frame_index == frame_index) host = kf.get();
+  }
+  if (host == nullptr) return out;
+  const double to_level0 = std::ldexp(1.0, options_.pyramid_level);
+  for (const auto& p : points_) {
+    if (p->host_id != host->id || p->residuals.empty()) continue;
+    if (!(p->inverse_depth > 0.0) || !std::isfinite(p->inverse_depth)) continue;
+    SettledPoint s;
+    s.u = (p->x + 0.5) * to_level0 - 0.5;
+    s.v = (p->y + 0.5) * to_level0 - 0.5;
+    s.depth_m = 1.0 / p->inverse_depth;
+    s.start_depth_m = 1.0 / p->start_inverse_depth;
+    s.observations = static_cast<int>(p->residuals.size());
+    double sq = 0.0;
+    size_t rows = 0;
+    for (const auto& [target_id, block] : p->residuals) {
+      sq += BlockSquaredNorm(*p, target_id, block);
+      rows += static_cast<size_t>(block.cost->num_residuals());
+    }
+    s.rms_residual = rows > 0 ? std::sqrt(sq / static_cast<double>(rows)) : 0.0;
+    out.push_back(s);
   }
   return out;
 }
@@ -504,6 +534,7 @@ double WindowOptimizer::SelectPoints(KeyframeState* kf) {
         std::max(1.0 / (kf->depth(c.x, c.y) * kf->prior_depth_scale), options_.min_inverse_depth);
     p->inverse_depth =
         std::max(1.0 / (kf->depth(c.x, c.y) * kf->initial_depth_scale), options_.min_inverse_depth);
+    p->start_inverse_depth = p->inverse_depth;
     p->patch = std::make_shared<const std::vector<double>>(
         SampleHostPatch(f, c.x, c.y, options_.patch_size));
     if (options_.patch_depth_shape) {
@@ -848,26 +879,31 @@ bool WindowOptimizer::Solve(int max_iterations, double* initial_cost, double* fi
   return true;
 }
 
+double WindowOptimizer::BlockSquaredNorm(const PointState& p, int target_id,
+                                         const Block& block) const {
+  const double* host_pose = FindKeyframe(p.host_id)->pose;
+  const double* target_pose = FindKeyframe(target_id)->pose;
+  // Usually the solve's last evaluation is at this state (not where the inverse-depth bound moved
+  // the point).
+  double sq = 0.0;
+  if (!block.compressed ||
+      !block.compressed->CachedSquaredNorm(host_pose, target_pose, p.inverse_depth, &sq)) {
+    std::vector<double> residuals(block.cost->num_residuals());
+    block.cost->EvaluateTangent(host_pose, target_pose, p.inverse_depth, residuals.data(), nullptr,
+                                nullptr, nullptr);
+    for (double r : residuals) sq += r * r;
+  }
+  return sq;
+}
+
 int WindowOptimizer::GateOutliers() {
   // Block costs per target keyframe at the current estimate.
   std::map<int, std::vector<double>> costs_by_target;
   std::vector<std::vector<std::pair<int, double>>> per_point(points_.size());
-  std::vector<double> residuals;
   for (size_t i = 0; i < points_.size(); ++i) {
-    PointState& p = *points_[i];
-    KeyframeState* host = FindKeyframe(p.host_id);
-    for (auto& [target_id, block] : p.residuals) {
-      const double* target_pose = FindKeyframe(target_id)->pose;
-      // Usually the solve's last evaluation is at this state (not where the inverse-depth bound
-      // moved the point).
-      double sq = 0.0;
-      if (!block.compressed ||
-          !block.compressed->CachedSquaredNorm(host->pose, target_pose, p.inverse_depth, &sq)) {
-        residuals.resize(block.cost->num_residuals());
-        block.cost->EvaluateTangent(host->pose, target_pose, p.inverse_depth, residuals.data(),
-                                    nullptr, nullptr, nullptr);
-        for (double r : residuals) sq += r * r;
-      }
+    const PointState& p = *points_[i];
+    for (const auto& [target_id, block] : p.residuals) {
+      const double sq = BlockSquaredNorm(p, target_id, block);
       costs_by_target[target_id].push_back(sq);
       per_point[i].emplace_back(target_id, sq);
     }
@@ -1066,6 +1102,7 @@ WindowResult WindowOptimizer::AddKeyframe(KeyframeData data) {
     const int position = ChooseKeyframeToMarginalize();
     result.marginalized_frame_index = keyframes_[position]->frame_index;
     result.marginalized_pose = PoseFromParameters(keyframes_[position]->pose);
+    result.marginalized_points = HostedPoints(result.marginalized_frame_index);
     MarginalizeKeyframe(position, &result);
     result.marginalization_ms = MsSince(marg_start);
   }

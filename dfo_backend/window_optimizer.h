@@ -225,6 +225,20 @@ struct WindowOptions {
 // 1.1, 1.2, ... up to max_stretch (WindowOptions::max_patch_stretch), at most 30.
 std::vector<double> WindowZoomLadder(double max_stretch);
 
+// A point's depth as the window holds it, with what it rests on (WindowOptimizer::HostedPoints):
+// the depth a keyframe's points settled on, e.g. to teach a depth network.
+struct SettledPoint {
+  // Pixel in the host keyframe at pyramid level 0 (pixel centres at integers; the window works at
+  // WindowOptions::pyramid_level, whose pixel x is (x + 0.5) 2^level - 0.5 here).
+  double u = 0.0, v = 0.0;
+  double depth_m = 0.0;        // the window's estimate, at the window's scale
+  double start_depth_m = 0.0;  // where it entered the window (the keyframe's depth map, scaled)
+  // Residual blocks: the other window keyframes it is compared in now (after the outlier gate).
+  int observations = 0;
+  // RMS of those blocks' residuals per feature value (z-score units) at the current estimate.
+  double rms_residual = 0.0;
+};
+
 // What one AddKeyframe did.
 struct WindowResult {
   // True when a BA ran and its result was kept; false when it failed or diverged (the state
@@ -241,6 +255,8 @@ struct WindowResult {
   // True when its information went into the marginalisation prior; false when it was dropped
   // (backend.marginalization false, or a prior that was rejected).
   bool marginalized_into_prior = false;
+  // The points it hosted as they were when it left (HostedPoints just before).
+  std::vector<SettledPoint> marginalized_points;
   // Ceres cost (0.5 sum of robustified squared residuals) before the first and after the last
   // solve.
   double initial_cost = 0.0;
@@ -307,6 +323,9 @@ class WindowOptimizer {
     double inverse_depth = 0.0;
   };
   std::vector<PointInfo> Points() const;
+  // The live points hosted by window keyframe `frame_index` (those with at least one residual
+  // block and a positive inverse depth), in selection order; empty when it is not in the window.
+  std::vector<SettledPoint> HostedPoints(int frame_index) const;
   // Every live point (one with at least one residual block, or any point while the window holds
   // one keyframe) moved into the camera frame of window keyframe `frame_index` with the window's
   // current poses and inverse depths: what DSO's tracker builds its depth from. Points behind
@@ -338,6 +357,8 @@ class WindowOptimizer {
   void MarginalizeKeyframe(int position, WindowResult* result);
   void RemovePointsWithoutResiduals();
   KeyframeState* FindKeyframe(int id) const;
+  // |r|^2 of `block` (the point's block into keyframe target_id) at the current estimate.
+  double BlockSquaredNorm(const PointState& p, int target_id, const Block& block) const;
 
   WindowOptions options_;
   std::unique_ptr<ceres::LossFunction> loss_;

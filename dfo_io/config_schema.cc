@@ -492,6 +492,11 @@ ConfigSchema BuildSchema() {
   s.AddBool("run.plot", true,
             "Write the trajectory pictures (frontend, windowed, both compared; top views coloured "
             "by ATE) when ground truth exists");
+  s.AddString("run.write_keyframe_depth", "",
+              "Folder for the depth each keyframe's window points settled on (with their "
+              "observations and residual) and the keyframes' windowed poses and images, for "
+              "training a depth network on the run's geometry (dfo_io/keyframe_depth_io.h); "
+              "needs a window (run.mode windowed or both); \"\" = none");
   s.AddInt("run.memory_limit_mb", 4096,
            "Largest peak memory (MiB) a run may need: dfo_run estimates it from the frame size and "
            "the options before the first frame (dfo_backend/memory_estimate.h; summary.json "
