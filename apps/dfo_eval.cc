@@ -563,6 +563,7 @@ int RunKeyframeDepth(int argc, char** argv) {
       bin.Set("observations", names[b]);
       bin.Set("points", static_cast<int64_t>(c.points_by_observations[b]));
       bin.Set("abs_rel_run_scale", c.abs_rel_by_observations[b]);
+      bin.Set("start_abs_rel_run_scale", c.start_abs_rel_by_observations[b]);
       bins.Push(std::move(bin));
     }
     out.Set("by_observations", std::move(bins));
@@ -577,11 +578,13 @@ int RunKeyframeDepth(int argc, char** argv) {
             << "abs_rel, each keyframe's own scale: " << Fixed(c.abs_rel_keyframe_scale, 4)
             << " (start depth " << Fixed(c.start_abs_rel_keyframe_scale, 4)
             << "); keyframe scale cv " << Fixed(c.keyframe_scale_cv, 4) << "\n"
-            << "abs_rel (run scale) by observations: 1: " << Fixed(c.abs_rel_by_observations[0], 4)
-            << " (" << c.points_by_observations[0]
-            << " points), 2-3: " << Fixed(c.abs_rel_by_observations[1], 4) << " ("
-            << c.points_by_observations[1] << "), 4+: " << Fixed(c.abs_rel_by_observations[2], 4)
-            << " (" << c.points_by_observations[2] << ")\n";
+            << "abs_rel (run scale) by observations, estimate / start depth:";
+  const char* bin_names[3] = {"1", "2-3", "4+"};
+  for (int b = 0; b < 3; ++b) {
+    std::cout << " " << bin_names[b] << ": " << Fixed(c.abs_rel_by_observations[b], 4) << " / "
+              << Fixed(c.start_abs_rel_by_observations[b], 4) << " ("
+              << c.points_by_observations[b] << " points)" << (b < 2 ? "," : "\n");
+  }
   return 0;
 }
 

@@ -121,7 +121,7 @@ KeyframeDepthCheck CheckKeyframeDepth(const io::KeyframeDepthFolder& folder,
   }
   out.run_scale = Median(all);
   const double start_scale = Median(all_start);
-  std::vector<double> rel_run, rel_kf, rel_start_run, rel_start_kf, rel_obs[3];
+  std::vector<double> rel_run, rel_kf, rel_start_run, rel_start_kf, rel_obs[3], rel_start_obs[3];
   size_t within = 0;
   for (const Sample& s : samples) {
     const double e = out.run_scale * s.estimate;
@@ -134,6 +134,7 @@ KeyframeDepthCheck CheckKeyframeDepth(const io::KeyframeDepthFolder& folder,
     within += std::max(e / s.reference, s.reference / e) < 1.25 ? 1 : 0;
     const int bin = s.observations <= 1 ? 0 : (s.observations <= 3 ? 1 : 2);
     rel_obs[bin].push_back(rel_run.back());
+    rel_start_obs[bin].push_back(rel_start_run.back());
   }
   out.abs_rel_run_scale = Mean(rel_run);
   out.abs_rel_keyframe_scale = Mean(rel_kf);
@@ -142,6 +143,7 @@ KeyframeDepthCheck CheckKeyframeDepth(const io::KeyframeDepthFolder& folder,
   out.start_abs_rel_keyframe_scale = Mean(rel_start_kf);
   for (int b = 0; b < 3; ++b) {
     out.abs_rel_by_observations[b] = Mean(rel_obs[b]);
+    out.start_abs_rel_by_observations[b] = Mean(rel_start_obs[b]);
     out.points_by_observations[b] = rel_obs[b].size();
   }
   std::vector<double> scales;

@@ -35,8 +35,10 @@ struct KeyframeDepthCheck {
   // The same for the depths the points started at (the depth source's, scaled).
   double start_abs_rel_run_scale = 0.0;
   double start_abs_rel_keyframe_scale = 0.0;
-  // abs_rel (run scale) of the points with 1, 2-3 and 4 or more observations, and their counts.
+  // abs_rel (run scale) of the points with 1, 2-3 and 4 or more observations, of their start
+  // depths, and their counts.
   double abs_rel_by_observations[3] = {0.0, 0.0, 0.0};
+  double start_abs_rel_by_observations[3] = {0.0, 0.0, 0.0};
   size_t points_by_observations[3] = {0, 0, 0};
 };
 
