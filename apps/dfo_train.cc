@@ -9,6 +9,7 @@
 #include <cmath>
 #include <csignal>
 #include <cstdio>
+#include <cstring>
 #include <filesystem>
 #include <iostream>
 #include <optional>
@@ -26,6 +27,7 @@
 #include "dfo_io/curve_plot.h"
 #include "dfo_io/dataset.h"
 #include "dfo_io/image_io.h"
+#include "dfo_io/keyframe_depth_io.h"
 #include "dfo_io/train_schema.h"
 
 namespace dfo {
@@ -136,6 +138,8 @@ learned::TrainingOptions OptionsFromConfig(const io::Config& c) {
                            : learned::LossOptions::DepthGauge::kMedian;
   o.loss.full_resolution = c.GetBool("loss.full_resolution");
   o.loss.depth_consistency_weight = c.GetDouble("loss.depth_consistency_weight");
+  o.loss.teacher_weight = c.GetDouble("loss.teacher_weight");
+  o.loss.teacher_huber = c.GetDouble("loss.teacher_huber");
   o.augment.enabled = c.GetBool("augment.enabled");
   o.augment.max_scale = c.GetDouble("augment.max_scale");
   o.augment.color_probability = c.GetDouble("augment.color_probability");
@@ -217,13 +221,67 @@ ImageU8 ToRgb(ImageU8 image) {
   return rgb;
 }
 
+// A keyframe depth folder (dfo_run run.write_keyframe_depth) as a training sequence: its
+// keyframes' images, RGB at the folder's image size (its camera), and as targets the points the
+// window compared in at least `min_observations` other keyframes.
+learned::TrainingSequence LoadTeacher(const std::string& folder, int min_observations) {
+  const io::KeyframeDepthFolder kd = io::ReadKeyframeDepthFolder(folder);
+  const std::string list = (std::filesystem::path(folder) / "keyframes.txt").string();
+  if (kd.keyframes.size() < 3) {
+    throw InputError("keyframe depth folder " + folder + ": " +
+                     std::to_string(kd.keyframes.size()) +
+                     " keyframes, training needs at least 3 (3-frame snippets)");
+  }
+  learned::TrainingSequence t;
+  t.name = folder;
+  t.camera = PinholeCamera(kd.fx, kd.fy, kd.cx, kd.cy, kd.image_width, kd.image_height);
+  int native_width = 0, native_height = 0;
+  size_t targets = 0;
+  for (const io::KeyframeDepthEntry& kf : kd.keyframes) {
+    const std::string where = list + ", frame " + std::to_string(kf.frame);
+    if (kf.image == "-" || kf.image.find('#') != std::string::npos) {
+      throw InputError(where + ": image '" + kf.image +
+                       "' is not an image file (frames of videos cannot be trained on yet)");
+    }
+    std::error_code ec;
+    if (!std::filesystem::is_regular_file(kf.image, ec)) {
+      throw InputError(where + ": image file not found: " + kf.image);
+    }
+    const ImageU8 image = io::ReadRgb(kf.image);
+    if (native_width == 0) {
+      native_width = image.width();
+      native_height = image.height();
+    } else if (image.width() != native_width || image.height() != native_height) {
+      throw InputError(where + ": image " + kf.image + " is " + std::to_string(image.width()) +
+                       "x" + std::to_string(image.height()) + ", the folder's first image " +
+                       std::to_string(native_width) + "x" + std::to_string(native_height));
+    }
+    t.images.push_back(io::Resize(image, kd.image_width, kd.image_height));
+    std::vector<learned::DepthTarget> list_of_kf;
+    for (const io::KeyframeDepthPoint& p : kf.points) {
+      if (p.observations < min_observations) continue;
+      list_of_kf.push_back(
+          {static_cast<float>(p.u), static_cast<float>(p.v), static_cast<float>(p.depth_m), 1.0f});
+    }
+    targets += list_of_kf.size();
+    t.depth_targets.push_back(std::move(list_of_kf));
+  }
+  if (targets == 0) {
+    throw InputError("keyframe depth folder " + folder + ": no point with at least " +
+                     std::to_string(min_observations) +
+                     " observations (data.teacher_min_observations): nothing to teach");
+  }
+  return t;
+}
+
 std::vector<learned::TrainingSequence> LoadData(const io::Config& config,
                                                 const learned::TrainingOptions& options) {
   const std::vector<std::string> folders = config.GetStringList("data.sequences");
-  if (folders.empty()) {
+  const std::vector<std::string> teachers = config.GetStringList("data.teachers");
+  if (folders.empty() && teachers.empty()) {
     throw ConfigError(
-        "data.sequences is empty: name at least one KITTI-layout sequence folder (e.g. "
-        "--set 'data.sequences=[out/train_data/seq101]')");
+        "data.sequences and data.teachers are empty: name at least one KITTI-layout sequence "
+        "folder (e.g. --set 'data.sequences=[out/train_data/seq101]') or keyframe depth folder");
   }
   const int max_frames = config.GetInt("data.max_frames");
   std::vector<learned::TrainingSequence> data;
@@ -246,6 +304,16 @@ std::vector<learned::TrainingSequence> LoadData(const io::Config& config,
     std::cout << "dfo_train: " << folder << ": " << n << " frames at " << t.camera.width << "x"
               << t.camera.height << "\n";
     data.push_back(std::move(t));
+  }
+  const int min_observations = config.GetInt("data.teacher_min_observations");
+  for (const std::string& folder : teachers) {
+    data.push_back(LoadTeacher(folder, min_observations));
+    const learned::TrainingSequence& t = data.back();
+    size_t targets = 0;
+    for (const auto& list : t.depth_targets) targets += list.size();
+    std::cout << "dfo_train: " << folder << ": " << t.images.size() << " keyframes at "
+              << t.camera.width << "x" << t.camera.height << ", " << targets
+              << " depth targets (at least " << min_observations << " observations)\n";
   }
   return data;
 }
@@ -506,6 +574,10 @@ int Run(const Args& args) {
     char consistency[48] = "";
     if (r.consistency > 0.0)
       std::snprintf(consistency, sizeof(consistency), " gc %.4f", r.consistency);
+    if (r.teacher > 0.0) {
+      const size_t used = std::strlen(consistency);
+      std::snprintf(consistency + used, sizeof(consistency) - used, " te %.4f", r.teacher);
+    }
     char buf[460];
     std::snprintf(
         buf, sizeof(buf),

@@ -11,6 +11,15 @@ ConfigSchema BuildTrainSchema() {
   s.AddStringList("data.sequences", {},
                   "Sequence folders (each holding calib.txt, times.txt and image_2/ or image_0/)");
   s.AddInt("data.max_frames", -1, "Frames used per sequence from its start; -1 = all").Min(-1);
+  s.AddStringList(
+      "data.teachers", {},
+      "Keyframe depth folders written by dfo_run (run.write_keyframe_depth): each is "
+      "trained on as a sequence of its keyframes' images, with the depth its window "
+      "settled on as sparse targets (loss.teacher_weight), one fitted scale per folder");
+  s.AddInt("data.teacher_min_observations", 4,
+           "A teacher point is a target when the window compared it in at least this many other "
+           "keyframes (fewer leave its depth to one or two short baselines)")
+      .Min(1);
 
   s.AddSection("network", "Shapes and widths of both networks (stored in the model file).");
   s.AddInt("network.input_width", 208, "Training width in pixels (divisible by 2^(levels-1))")
@@ -86,6 +95,13 @@ ConfigSchema BuildTrainSchema() {
               "against the source's own depth, |z - d| / (z + d); ties consecutive frames' scale "
               "together (0 = off)")
       .Min(0);
+  s.AddDouble("loss.teacher_weight", 1.0,
+              "Weight of the depth targets of data.teachers: Huber on log(network depth x the "
+              "folder's fitted scale / target) (0 = off)")
+      .Min(0);
+  s.AddDouble("loss.teacher_huber", 0.1,
+              "Huber threshold of the depth-target term on the log-depth residual")
+      .GreaterThan(0);
 
   s.AddSection("augment", "Augmentation, identical for the three frames of a snippet.");
   s.AddBool("augment.enabled", true, "Augment the training snippets");

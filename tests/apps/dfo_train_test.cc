@@ -216,6 +216,52 @@ TEST_F(DfoTrainAppTest, CommandLineMistakesAreNamed) {
   EXPECT_NE(r.out.find("no checkpoint"), std::string::npos) << r.out;
 }
 
+#ifdef DFO_RUN_EXE
+// data.teachers: a keyframe depth folder written by dfo_run trains as a sequence of its keyframes
+// with their settled depths as targets (the term shows as "te" on the progress lines and in
+// losses.csv); a folder whose image is missing, or without a single target, is refused naming it.
+TEST_F(DfoTrainAppTest, TrainsOnAKeyframeDepthFolderAndRefusesDamagedOnes) {
+  const std::string out = test::MakeTempDir("dfo_train_teacher");
+  const CommandResult run = Shell(std::string(DFO_RUN_EXE) + " --config " + test::SourceDir() +
+                                  "/configs/demo.yaml --set dataset.path=" + *data_ +
+                                  " --set run.progress=none --set run.plot=false --output " + out +
+                                  "/run --set run.write_keyframe_depth=" + out + "/teacher");
+  ASSERT_EQ(run.status, 0) << run.out;
+  const std::string teach = std::string(DFO_TRAIN_EXE) + " --config " + test::SourceDir() +
+                            "/configs/train_tiny.yaml --set 'data.sequences=[]' --set "
+                            "data.teacher_min_observations=1 ";
+  const CommandResult r =
+      Shell(teach + "--set 'data.teachers=[" + out + "/teacher]' --output " + out + "/train");
+  ASSERT_EQ(r.status, 0) << r.out;
+  EXPECT_NE(r.out.find(" depth targets (at least 1 observations)"), std::string::npos) << r.out;
+  EXPECT_NE(r.out.find(" te "), std::string::npos) << r.out;
+  const std::vector<std::string> curve = ReadLines(out + "/train/losses.csv");
+  ASSERT_GT(curve.size(), 2u);
+  EXPECT_NE(curve[0].find(",teacher"), std::string::npos) << curve[0];
+
+  // A keyframe whose image is gone.
+  fs::copy(out + "/teacher", out + "/missing", fs::copy_options::recursive);
+  std::string list = ReadBytes(out + "/missing/keyframes.txt");
+  const size_t png = list.rfind(".png");
+  ASSERT_NE(png, std::string::npos);
+  list.replace(png, 4, "_gone.png");
+  std::ofstream(out + "/missing/keyframes.txt") << list;
+  const CommandResult missing =
+      Shell(teach + "--set 'data.teachers=[" + out + "/missing]' --output " + out + "/train2");
+  EXPECT_EQ(missing.status, 1) << missing.out;
+  EXPECT_NE(missing.out.find(out + "/missing/keyframes.txt, frame "), std::string::npos)
+      << missing.out;
+  EXPECT_NE(missing.out.find("image file not found"), std::string::npos) << missing.out;
+  // No point with enough observations.
+  const CommandResult none =
+      Shell(teach + "--set data.teacher_min_observations=1000 --set " + "'data.teachers=[" + out +
+            "/teacher]' --output " + out + "/train3");
+  EXPECT_EQ(none.status, 1) << none.out;
+  EXPECT_NE(none.out.find("no point with at least 1000 observations"), std::string::npos)
+      << none.out;
+}
+#endif
+
 // The largest inputs the configuration accepts (4096 x 4096) in batches of 64 would need terabytes:
 // refused before any data is read or file written, naming the estimate, the keys and the limit.
 TEST_F(DfoTrainAppTest, InputsBeyondTheMemoryLimitAreRefusedUpFront) {

@@ -36,6 +36,8 @@ void LossOptions::Check() const {
   Require(ae_weight >= 0.0, "ae_weight", ae_weight, ">= 0");
   Require(depth_mean_m >= 0.0, "depth_mean_m", depth_mean_m, ">= 0");
   Require(depth_prior_weight >= 0.0, "depth_prior_weight", depth_prior_weight, ">= 0");
+  Require(teacher_weight >= 0.0, "teacher_weight", teacher_weight, ">= 0");
+  Require(teacher_huber > 0.0, "teacher_huber", teacher_huber, "> 0");
 }
 
 torch::Tensor RobustClamp(const torch::Tensor& x, double eps) {

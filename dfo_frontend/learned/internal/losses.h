@@ -63,6 +63,11 @@ struct LossOptions {
   // together: the per-image gauge alone leaves each image's scale free (every image then keeps
   // the prior's geometric mean, whatever its scene).
   double depth_consistency_weight = 0.0;
+  // Depth targets from the system's own geometry (teacher.h; sequences with depth_targets): the
+  // weight of their term in the joint stage (>= 0, 0 = off) and the Huber threshold on the
+  // log-depth residual (> 0; 0.1: quadratic within about 10 %).
+  double teacher_weight = 1.0;
+  double teacher_huber = 0.1;
 
   // Throws ConfigError naming the field, value and rule.
   void Check() const;

@@ -14,6 +14,8 @@
 #include <cstdlib>
 #include <cstring>
 #include <fstream>
+#include <limits>
+#include <map>
 #include <sstream>
 
 #include "dfo_core/error.h"
@@ -71,7 +73,8 @@ torch::Tensor MeanAbsGrey(const torch::Tensor& a, const torch::Tensor& b) {
 // Columns of the history (checkpoint tensor and CSV). Older checkpoints and CSVs have fewer:
 // the first 12 before the pose-error diagnostic (the two pose errors then read NaN), the first
 // 14 before the geometry-consistency term (it then reads 0).
-constexpr int kHistoryColumns = 15;
+constexpr int kHistoryColumns = 16;
+constexpr int kConsistencyColumns = 15;
 constexpr int kPoseErrorColumns = 14;
 constexpr int kOldHistoryColumns = 12;
 
@@ -301,7 +304,27 @@ Trainer::Trainer(const TrainingOptions& options, std::vector<TrainingSequence> d
                        ": no ground-truth poses, but gn.pose_source = ground_truth needs them "
                        "(KITTI layout: poses/<sequence>.txt)");
     }
+    if (!seq.depth_targets.empty() && seq.depth_targets.size() != seq.images.size()) {
+      std::ostringstream msg;
+      msg << "training data " << seq.name << ": depth targets for " << seq.depth_targets.size()
+          << " images of " << seq.images.size() << " (need one list each, or none)";
+      throw InputError(msg.str());
+    }
+    for (size_t i = 0; i < seq.depth_targets.size(); ++i) {
+      for (const DepthTarget& t : seq.depth_targets[i]) {
+        if (!(t.depth_m > 0.0f) || !std::isfinite(t.depth_m) || !(t.weight > 0.0f) ||
+            !std::isfinite(t.weight) || !std::isfinite(t.u) || !std::isfinite(t.v)) {
+          std::ostringstream msg;
+          msg << "training data " << seq.name << " frame " << i << ": depth target at (" << t.u
+              << ", " << t.v << ") with depth " << t.depth_m << " and weight " << t.weight
+              << ", expected finite, positive values";
+          throw InputError(msg.str());
+        }
+      }
+    }
     if (seq.camera.width != w || seq.camera.height != h) {
+      const PinholeCamera resized = seq.camera.Resized(w, h);
+      for (auto& targets : seq.depth_targets) targets = MoveTargets(targets, seq.camera, resized);
       // Resize to the training size (bilinear, pixel-centre convention as Resized()).
       for (ImageU8& im : seq.images) {
         const torch::Tensor t =
@@ -338,6 +361,7 @@ Trainer::Trainer(const TrainingOptions& options, std::vector<TrainingSequence> d
         "training data: no usable 3-frame snippet (need sequences of >= 3 frames whose "
         "consecutive frames differ by more than train.static_threshold)");
   }
+  teacher_log_scales_.assign(data_.size(), std::numeric_limits<double>::quiet_NaN());
   torch::set_num_threads(options_.threads);
   networks_ = Networks(options_.network, options_.seed);
   if (options_.initial_depth_m > 0.0) networks_->depth->SetInitialDepth(options_.initial_depth_m);
@@ -448,6 +472,12 @@ Trainer::Batch Trainer::MakeBatch(int iteration) const {
       }
     }
     for (int k = 0; k < 3; ++k) frames[k].push_back(images[k]);
+    torch::Tensor targets;
+    if (!seq.depth_targets.empty()) {
+      targets = TargetsToTensor(MoveTargets(seq.depth_targets[snip.index], seq.camera, camera));
+      if (targets.defined()) targets = targets.to(device_);
+    }
+    batch.teacher_targets.push_back(targets);
     intrinsics.insert(intrinsics.end(),
                       {static_cast<float>(camera.fx), static_cast<float>(camera.fy),
                        static_cast<float>(camera.cx), static_cast<float>(camera.cy)});
@@ -523,6 +553,17 @@ StepRecord Trainer::JointStep(const Batch& batch, int iteration) {
     const torch::Tensor both =
         networks_->depth->forward(torch::cat({batch.previous, batch.next}, 0)).depth[0];
     for (int s = 0; s < 2; ++s) source_depth[s] = both.narrow(0, s * n, n) * gauge_factor;
+  }
+  // Depth targets (teacher.h) on the raw output, each sample's run at its fitted scale.
+  torch::Tensor teacher = torch::zeros({}, float_options);
+  std::vector<double> teacher_offsets;
+  if (options_.loss.teacher_weight > 0.0) {
+    std::vector<double> log_scales;
+    for (const Snippet& snip : batch.snippets) {
+      log_scales.push_back(teacher_log_scales_[static_cast<size_t>(snip.sequence)]);
+    }
+    teacher = TeacherDepthLoss(raw_depth.depth[0], batch.teacher_targets, log_scales,
+                               options_.loss.teacher_huber, &teacher_offsets);
   }
   DepthNetOutput depth = raw_depth;
   depth.depth = depth_levels;
@@ -655,11 +696,11 @@ StepRecord Trainer::JointStep(const Batch& batch, int iteration) {
       reconstruction = reconstruction + ReconstructionLoss(recon[l], targets[l]) / levels;
     }
   }
-  const torch::Tensor total = appearance + options_.loss.smooth_weight * smoothness +
-                              options_.loss.sparsity_weight * sparsity +
-                              options_.loss.ae_weight * reconstruction +
-                              options_.loss.depth_prior_weight * scale_prior +
-                              options_.loss.depth_consistency_weight * consistency;
+  const torch::Tensor total =
+      appearance + options_.loss.smooth_weight * smoothness +
+      options_.loss.sparsity_weight * sparsity + options_.loss.ae_weight * reconstruction +
+      options_.loss.depth_prior_weight * scale_prior +
+      options_.loss.depth_consistency_weight * consistency + options_.loss.teacher_weight * teacher;
   optimizer_->zero_grad();
   const auto t3 = Clock::now();
   total.backward();
@@ -680,6 +721,20 @@ StepRecord Trainer::JointStep(const Batch& batch, int iteration) {
   rec.sparsity = sparsity.item<double>();
   rec.reconstruction = reconstruction.item<double>();
   rec.consistency = consistency.item<double>();
+  rec.teacher = teacher.item<double>();
+  // Each run's scale follows the median offsets of its samples in this batch.
+  std::map<int, std::vector<double>> offsets_by_sequence;
+  for (size_t b = 0; b < teacher_offsets.size(); ++b) {
+    if (std::isfinite(teacher_offsets[b])) {
+      offsets_by_sequence[batch.snippets[b].sequence].push_back(teacher_offsets[b]);
+    }
+  }
+  for (auto& [sequence, offsets] : offsets_by_sequence) {
+    std::nth_element(offsets.begin(), offsets.begin() + offsets.size() / 2, offsets.end());
+    double& s = teacher_log_scales_[static_cast<size_t>(sequence)];
+    const double o = offsets[offsets.size() / 2];
+    s = std::isfinite(s) ? 0.9 * s + 0.1 * o : o;
+  }
   rec.mean_depth = raw_depth.depth[0].detach().median().item<double>();
   return rec;
 }
@@ -755,10 +810,13 @@ void Trainer::SaveCheckpoint(const std::string& path) const {
                                          r.seconds,
                                          r.pose_rotation_error_deg,
                                          r.pose_direction_error_deg,
-                                         r.consistency};
+                                         r.consistency,
+                                         r.teacher};
     for (int c = 0; c < kHistoryColumns; ++c) a[i][c] = row[c];
   }
   archive.write("history", h);
+  archive.write("teacher_log_scales",
+                torch::tensor(teacher_log_scales_, torch::TensorOptions().dtype(torch::kFloat64)));
   const std::string tmp = path + ".tmp";
   try {
     archive.save_to(tmp);
@@ -840,8 +898,18 @@ void Trainer::LoadCheckpoint(const std::string& path) {
         r.pose_rotation_error_deg = a[i][12];
         r.pose_direction_error_deg = a[i][13];
       }
-      if (h.size(1) >= kHistoryColumns) r.consistency = a[i][14];
+      if (h.size(1) >= kConsistencyColumns) r.consistency = a[i][14];
+      if (h.size(1) >= kHistoryColumns) r.teacher = a[i][15];
       history_.push_back(r);
+    }
+    // Checkpoints from before depth targets have no run scales: they are fitted afresh.
+    torch::Tensor scales;
+    if (archive.try_read("teacher_log_scales", scales) &&
+        scales.numel() == static_cast<int64_t>(teacher_log_scales_.size())) {
+      scales = scales.to(torch::kCPU, torch::kFloat64).contiguous();
+      for (int64_t i = 0; i < scales.numel(); ++i) {
+        teacher_log_scales_[static_cast<size_t>(i)] = scales.data_ptr<double>()[i];
+      }
     }
   } catch (const c10::Error& e) {
     throw InputError("checkpoint " + path + ": " +
@@ -879,14 +947,14 @@ void WriteHistoryCsv(const std::string& path, const std::vector<StepRecord>& his
   if (!out) throw InputError("loss history " + path + ": cannot be written");
   out << "iteration,stage,total,appearance,smoothness,sparsity,reconstruction,learning_rate,"
          "temperature,gn_ok_ratio,mean_depth_m,seconds,pose_rotation_error_deg,"
-         "pose_direction_error_deg,consistency\n";
+         "pose_direction_error_deg,consistency,teacher\n";
   out.precision(9);
   for (const StepRecord& r : history) {
     out << r.iteration << "," << r.stage << "," << r.total << "," << r.appearance << ","
         << r.smoothness << "," << r.sparsity << "," << r.reconstruction << "," << r.learning_rate
         << "," << r.temperature << "," << r.gn_ok_ratio << "," << r.mean_depth << "," << r.seconds
         << "," << r.pose_rotation_error_deg << "," << r.pose_direction_error_deg << ","
-        << r.consistency << "\n";
+        << r.consistency << "," << r.teacher << "\n";
   }
   if (!out) throw InputError("loss history " + path + ": write failed");
 }
@@ -904,8 +972,8 @@ std::vector<StepRecord> ReadHistoryCsv(const std::string& path) {
     std::string field;
     std::vector<std::string> f;
     while (std::getline(ss, field, ',')) f.push_back(field);
-    if (f.size() != kHistoryColumns && f.size() != kPoseErrorColumns &&
-        f.size() != kOldHistoryColumns) {
+    if (f.size() != kHistoryColumns && f.size() != kConsistencyColumns &&
+        f.size() != kPoseErrorColumns && f.size() != kOldHistoryColumns) {
       std::ostringstream msg;
       msg << "loss history " << path << ":" << line_no << ": " << f.size() << " fields, expected "
           << kHistoryColumns;
@@ -929,7 +997,8 @@ std::vector<StepRecord> ReadHistoryCsv(const std::string& path) {
         r.pose_rotation_error_deg = std::stod(f[12]);
         r.pose_direction_error_deg = std::stod(f[13]);
       }
-      if (f.size() >= kHistoryColumns) r.consistency = std::stod(f[14]);
+      if (f.size() >= kConsistencyColumns) r.consistency = std::stod(f[14]);
+      if (f.size() >= kHistoryColumns) r.teacher = std::stod(f[15]);
       out.push_back(r);
     } catch (const std::exception&) {
       std::ostringstream msg;

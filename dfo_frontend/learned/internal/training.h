@@ -39,6 +39,7 @@
 #include "dfo_frontend/learned/internal/diff_gn.h"
 #include "dfo_frontend/learned/internal/losses.h"
 #include "dfo_frontend/learned/internal/networks.h"
+#include "dfo_frontend/learned/internal/teacher.h"
 #include "dfo_frontend/tracker.h"
 
 namespace dfo::learned {
@@ -53,6 +54,10 @@ struct TrainingSequence {
   // losses of the default training: only for the pose-error diagnostic (StepRecord) and the
   // diagnostic pose source TrainingOptions::PoseSource::kGroundTruth.
   std::vector<SE3d> world_from_cam;
+  // Sparse depth targets per image (teacher.h), or empty when the sequence has none: the depths
+  // one run of the system settled on, so they share one unknown scale, which the trainer fits
+  // (Trainer::teacher_log_scales). Pixels in `camera`'s convention.
+  std::vector<std::vector<DepthTarget>> depth_targets;
 };
 
 // A 3-frame snippet: frames index - 1, index, index + 1 of sequence `sequence`.
@@ -165,6 +170,7 @@ struct StepRecord {
   double sparsity = 0.0;
   double reconstruction = 0.0;
   double consistency = 0.0;  // geometry-consistency term (LossOptions::depth_consistency_weight)
+  double teacher = 0.0;      // depth-target term (LossOptions::teacher_weight; teacher.h)
   double learning_rate = 0.0;
   double temperature = 0.0;
   double gn_ok_ratio = 0.0;  // fraction of alignments whose finest level succeeded
@@ -219,6 +225,10 @@ class Trainer {
   // (0-based) is for the message. Step() calls it; public for tests.
   void ClippedStep(int iteration);
   int skipped_updates() const { return skipped_updates_; }
+  // Per sequence: the log factor from the network's raw depth to its depth targets' scale (the
+  // run's), kept as a running robust estimate (each joint step's median offset, averaged with
+  // weight 0.1); NaN for a sequence without targets or before its first batch. In checkpoints.
+  const std::vector<double>& teacher_log_scales() const { return teacher_log_scales_; }
 
   int iteration() const { return iteration_; }
   const std::vector<StepRecord>& history() const { return history_; }
@@ -244,6 +254,9 @@ class Trainer {
     // translation N x 3, float), defined only when every sample's sequence has poses.
     bool has_ground_truth = false;
     torch::Tensor gt_rotation[2], gt_translation[2];
+    // Per sample: its target frame's depth targets at the augmented camera (TargetsToTensor,
+    // on the device; undefined when it has none).
+    std::vector<torch::Tensor> teacher_targets;
   };
   Batch MakeBatch(int iteration) const;
 
@@ -264,6 +277,7 @@ class Trainer {
   int iteration_ = 0;
   std::vector<StepRecord> history_;
   int skipped_updates_ = 0;  // updates skipped for a non-finite gradient (this process)
+  std::vector<double> teacher_log_scales_;
 };
 
 // The view-synthesis (appearance) loss of the joint stage: per level l (images average-pooled
