@@ -3,6 +3,7 @@
 models by, from one command:
 
   /usr/bin/python3 tools/eval_model.py --model M.dfo --output DIR [--build build] [--skip-real]
+                                        [--trained-on 00,03]
 
 - synthetic: depth of the held-out synthetic sequence (dfo_synth sequence 01, seed 1, 200 frames,
   rendered into DIR) against its true depth: `dfo_eval depth --median-scaling` AbsRel and
@@ -16,8 +17,14 @@ models by, from one command:
 - kitti06: `configs/kitti.yaml` (its keyframe stereo included, `learned.model` set to the model)
   on KITTI 06 started at each of frames 0-7 to frame 50 (held out):
   geometric means of the windowed and frontend-only Sim3 ATE, frames lost;
-- kitti03: `configs/kitti.yaml` on all 801 frames of KITTI 03 (a training sequence of the
-  fine-tuning runs): Sim3 ATE and KITTI t_rel of both trajectories.
+- kitti03: `configs/kitti.yaml` on all 801 frames of KITTI 03: Sim3 ATE and KITTI t_rel of both
+  trajectories;
+- kitti00_depth, kitti00: the same for KITTI 00 frames 0-159 (depth: every 10th frame; the run
+  from frame 0 to 159).
+
+A figure of a real sequence the model was trained on (--trained-on, e.g. `--trained-on 00,03`
+for a model taught by runs of KITTI 00 and 03) is marked as such in the table and in
+figures.json (`held_out: false`): only held-out figures say how the model carries over.
 
 Everything runs with `run.threads` 1 (deterministic). The real sets are skipped, saying so, when
 ../shared/data is absent or with --skip-real. Prints a table and writes DIR/figures.json. Exits
@@ -111,7 +118,15 @@ def main():
                         "models/README.md)")
     parser.add_argument("--demo-frames", type=int, default=500,
                         help="frames of the demo sequence (500 as make demo)")
+    parser.add_argument("--trained-on", default="",
+                        help="comma-separated KITTI sequences the model was trained on (e.g. 03 "
+                        "for models/kitti.dfo): their figures are marked as not held out")
     a = parser.parse_args()
+    trained_on = {t.strip() for t in a.trained_on.split(",") if t.strip()}
+    unknown = trained_on - {"00", "03", "06"}
+    if unknown:
+        sys.exit(f"eval_model: --trained-on {a.trained_on}: {', '.join(sorted(unknown))} is not "
+                 "one of the measured sequences 00, 03, 06")
     model = os.path.abspath(a.model)
     output = os.path.abspath(a.output)
     build = os.path.abspath(a.build)
@@ -141,14 +156,17 @@ def main():
             figures["tum"] = depth_figures(runner, model, output, "tum", tum,
                                            os.path.join(tum, "depth"), 5000)
             kitti = os.path.join(SHARED, "kitti")
-            for seq, every in (("06", 5), ("03", 20)):
+            for seq, every, frames in (("06", 5, None), ("03", 20, None), ("00", 10, "0-159")):
                 reference = os.path.join(output, f"kitti{seq}_stereo")
-                runner.run(f"kitti{seq}_stereo", "dfo_eval",
-                           ["stereo-depth", "--path", kitti, "--sequence", seq, "--every",
-                            str(every), "--threads", "2", "--output", reference])
+                stereo = ["stereo-depth", "--path", kitti, "--sequence", seq, "--every",
+                          str(every), "--threads", "2", "--output", reference]
+                if frames:
+                    stereo += ["--frames", frames]
+                runner.run(f"kitti{seq}_stereo", "dfo_eval", stereo)
                 figures[f"kitti{seq}_depth"] = depth_figures(
                     runner, model, output, f"kitti{seq}", os.path.join(kitti, "sequences", seq),
                     reference, 256)
+                figures[f"kitti{seq}_depth"]["held_out"] = seq not in trained_on
             starts = [run_figures(runner, f"kitti06_{f}-50", "configs/kitti.yaml", output,
                                   [f"dataset.path={kitti}", "dataset.sequence=06",
                                    f"dataset.first={f}", "dataset.last=50",
@@ -157,10 +175,17 @@ def main():
                 "windowed_ate_rmse_gm": geometric_mean([s["windowed_ate_rmse"] for s in starts]),
                 "frontend_ate_rmse_gm": geometric_mean([s["frontend_ate_rmse"] for s in starts]),
                 "windowed_ate_rmse": [s["windowed_ate_rmse"] for s in starts],
-                "frames_lost": sum(s["frames_lost"] for s in starts)}
+                "frames_lost": sum(s["frames_lost"] for s in starts),
+                "held_out": "06" not in trained_on}
             figures["kitti03"] = run_figures(
                 runner, "kitti03", "configs/kitti.yaml", output,
                 [f"dataset.path={kitti}", "dataset.sequence=03", f"learned.model={model}"])
+            figures["kitti03"]["held_out"] = "03" not in trained_on
+            figures["kitti00"] = run_figures(
+                runner, "kitti00", "configs/kitti.yaml", output,
+                [f"dataset.path={kitti}", "dataset.sequence=00", "dataset.last=159",
+                 f"learned.model={model}"])
+            figures["kitti00"]["held_out"] = "00" not in trained_on
     except (RuntimeError, KeyError, ValueError, OSError) as e:
         print(f"eval_model: {e}", file=sys.stderr)
         with open(os.path.join(output, "figures.json"), "w") as f:
@@ -178,20 +203,26 @@ def main():
           f"cv {fmt(s['median_scale_cv'])}")
     print(f"demo learned: windowed {fmt(dl.get('windowed_ate_rmse'))} m, frontend-only "
           f"{fmt(dl.get('frontend_ate_rmse'))} m, lost {dl['frames_lost']}")
+    def what(seq):
+        return "held out" if seq not in trained_on else "TRAINED ON: not a held-out figure"
+
     if "tum" in figures:
-        t, k6, k3 = figures["tum"], figures["kitti06_8_starts"], figures["kitti03"]
+        t, k6 = figures["tum"], figures["kitti06_8_starts"]
         print(f"TUM depth (held out): AbsRel {fmt(t['abs_rel'])}, cv {fmt(t['median_scale_cv'])}")
-        for seq, what in (("06", "held out"), ("03", "a fine-tuning sequence")):
+        for seq in ("06", "03", "00"):
             d = figures[f"kitti{seq}_depth"]
-            print(f"KITTI {seq} depth against ground-truth-pose stereo ({what}): AbsRel "
+            print(f"KITTI {seq} depth against ground-truth-pose stereo ({what(seq)}): AbsRel "
                   f"{fmt(d['abs_rel'])}, cv {fmt(d['median_scale_cv'])}")
-        print(f"KITTI 06, 8 starts (held out): windowed {fmt(k6['windowed_ate_rmse_gm'])} m, "
+        print(f"KITTI 06, 8 starts ({what('06')}): windowed {fmt(k6['windowed_ate_rmse_gm'])} m, "
               f"frontend-only {fmt(k6['frontend_ate_rmse_gm'])} m (geometric means), "
               f"lost {k6['frames_lost']}")
-        print(f"KITTI 03: windowed {fmt(k3.get('windowed_ate_rmse'), 2)} m, t_rel "
-              f"{fmt(k3.get('windowed_t_rel_pct'), 2)} %; frontend-only "
-              f"{fmt(k3.get('frontend_ate_rmse'), 2)} m, t_rel "
-              f"{fmt(k3.get('frontend_t_rel_pct'), 2)} %, lost {k3['frames_lost']}")
+        for seq, frames in (("03", "801 frames"), ("00", "frames 0-159")):
+            k = figures[f"kitti{seq}"]
+            print(f"KITTI {seq}, {frames} ({what(seq)}): windowed "
+                  f"{fmt(k.get('windowed_ate_rmse'), 2)} m, t_rel "
+                  f"{fmt(k.get('windowed_t_rel_pct'), 2)} %; frontend-only "
+                  f"{fmt(k.get('frontend_ate_rmse'), 2)} m, t_rel "
+                  f"{fmt(k.get('frontend_t_rel_pct'), 2)} %, lost {k['frames_lost']}")
     print(f"figures: {os.path.join(output, 'figures.json')}")
     return 0
 

@@ -50,6 +50,14 @@ TEST(EvalModelTool, MeasuresAModelFileOnTheSyntheticSets) {
       "/usr/bin/python3", script + " --model " + dir + "/missing.dfo --output " + dir + "/bad");
   EXPECT_NE(bad.status, 0);
   EXPECT_NE(bad.err.find("missing.dfo does not exist"), std::string::npos) << bad.err;
+  // --trained-on names the real sequences whose figures are not held out: only measured ones.
+  const test::CommandResult trained = test::RunCommand(
+      "/usr/bin/python3", script + " --model " + test::SourceDir() + "/models/default.dfo" +
+                              " --output " + dir + "/bad2 --trained-on 03,05");
+  EXPECT_NE(trained.status, 0);
+  EXPECT_NE(trained.err.find("05 is not one of the measured sequences 00, 03, 06"),
+            std::string::npos)
+      << trained.err;
 }
 
 #else
