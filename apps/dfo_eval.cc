@@ -564,6 +564,7 @@ int RunKeyframeDepth(int argc, char** argv) {
       bin.Set("points", static_cast<int64_t>(c.points_by_observations[b]));
       bin.Set("abs_rel_run_scale", c.abs_rel_by_observations[b]);
       bin.Set("start_abs_rel_run_scale", c.start_abs_rel_by_observations[b]);
+      bin.Set("median_log_ratio", c.median_log_ratio_by_observations[b]);
       bins.Push(std::move(bin));
     }
     out.Set("by_observations", std::move(bins));
@@ -583,7 +584,8 @@ int RunKeyframeDepth(int argc, char** argv) {
   for (int b = 0; b < 3; ++b) {
     std::cout << " " << bin_names[b] << ": " << Fixed(c.abs_rel_by_observations[b], 4) << " / "
               << Fixed(c.start_abs_rel_by_observations[b], 4) << " ("
-              << c.points_by_observations[b] << " points)" << (b < 2 ? "," : "\n");
+              << c.points_by_observations[b] << " points, median log(estimate / reference) "
+              << Fixed(c.median_log_ratio_by_observations[b], 4) << ")" << (b < 2 ? "," : "\n");
   }
   return 0;
 }

@@ -121,7 +121,8 @@ KeyframeDepthCheck CheckKeyframeDepth(const io::KeyframeDepthFolder& folder,
   }
   out.run_scale = Median(all);
   const double start_scale = Median(all_start);
-  std::vector<double> rel_run, rel_kf, rel_start_run, rel_start_kf, rel_obs[3], rel_start_obs[3];
+  std::vector<double> rel_run, rel_kf, rel_start_run, rel_start_kf, rel_obs[3], rel_start_obs[3],
+      log_obs[3];
   size_t within = 0;
   for (const Sample& s : samples) {
     const double e = out.run_scale * s.estimate;
@@ -135,6 +136,7 @@ KeyframeDepthCheck CheckKeyframeDepth(const io::KeyframeDepthFolder& folder,
     const int bin = s.observations <= 1 ? 0 : (s.observations <= 3 ? 1 : 2);
     rel_obs[bin].push_back(rel_run.back());
     rel_start_obs[bin].push_back(rel_start_run.back());
+    log_obs[bin].push_back(std::log(e / s.reference));
   }
   out.abs_rel_run_scale = Mean(rel_run);
   out.abs_rel_keyframe_scale = Mean(rel_kf);
@@ -144,6 +146,7 @@ KeyframeDepthCheck CheckKeyframeDepth(const io::KeyframeDepthFolder& folder,
   for (int b = 0; b < 3; ++b) {
     out.abs_rel_by_observations[b] = Mean(rel_obs[b]);
     out.start_abs_rel_by_observations[b] = Mean(rel_start_obs[b]);
+    out.median_log_ratio_by_observations[b] = Median(log_obs[b]);
     out.points_by_observations[b] = rel_obs[b].size();
   }
   std::vector<double> scales;

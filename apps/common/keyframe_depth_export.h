@@ -39,6 +39,8 @@ struct KeyframeDepthCheck {
   // depths, and their counts.
   double abs_rel_by_observations[3] = {0.0, 0.0, 0.0};
   double start_abs_rel_by_observations[3] = {0.0, 0.0, 0.0};
+  // Median of log(estimate / reference) (run scale) per bin: a bias of the bin against the run.
+  double median_log_ratio_by_observations[3] = {0.0, 0.0, 0.0};
   size_t points_by_observations[3] = {0, 0, 0};
 };
 
