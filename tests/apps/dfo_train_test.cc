@@ -210,7 +210,7 @@ TEST_F(DfoTrainAppTest, CommandLineMistakesAreNamed) {
   r = Shell(std::string(DFO_TRAIN_EXE) + " --config " + test::SourceDir() +
             "/configs/train_tiny.yaml --output " + out);
   EXPECT_EQ(r.status, 1);
-  EXPECT_NE(r.out.find("data.sequences is empty"), std::string::npos) << r.out;
+  EXPECT_NE(r.out.find("data.sequences and data.teachers are empty"), std::string::npos) << r.out;
   r = Shell(Train("--output " + out + "/none --export"));
   EXPECT_EQ(r.status, 1);
   EXPECT_NE(r.out.find("no checkpoint"), std::string::npos) << r.out;
