@@ -39,6 +39,11 @@ io::KeyframeDepthFolder KeyframeDepthOfRun(const SequenceRunResult& result,
     entry.image = info.video_frame >= 0 ? info.image_path + "#" + std::to_string(info.video_frame)
                                         : info.image_path;
     for (const SettledPoint& p : kf.settled_points) {
+      // A block that could not be evaluated leaves a non-finite residual: not a target.
+      if (!std::isfinite(p.rms_residual) || !std::isfinite(p.depth_m) ||
+          !std::isfinite(p.start_depth_m)) {
+        continue;
+      }
       entry.points.push_back(
           {p.u, p.v, p.depth_m, p.start_depth_m, p.observations, p.rms_residual});
     }
