@@ -72,7 +72,8 @@ torch::Tensor MeanAbsGrey(const torch::Tensor& a, const torch::Tensor& b) {
 
 // Columns of the history (checkpoint tensor and CSV). Older checkpoints and CSVs have fewer:
 // the first 12 before the pose-error diagnostic (the two pose errors then read NaN), the first
-// 14 before the geometry-consistency term (it then reads 0).
+// 14 before the geometry-consistency term, the first 15 before the depth-target term (each then
+// reads 0).
 constexpr int kHistoryColumns = 16;
 constexpr int kConsistencyColumns = 15;
 constexpr int kPoseErrorColumns = 14;
