@@ -407,6 +407,7 @@ std::vector<SettledPoint> WindowOptimizer::HostedPoints(int frame_index) const {
   }
   if (host == nullptr) return out;
   const double to_level0 = std::ldexp(1.0, options_.pyramid_level);
+  std::vector<double> scratch;
   for (const auto& p : points_) {
     if (p->host_id != host->id || p->residuals.empty()) continue;
     if (!(p->inverse_depth > 0.0) || !std::isfinite(p->inverse_depth)) continue;
@@ -419,7 +420,7 @@ std::vector<SettledPoint> WindowOptimizer::HostedPoints(int frame_index) const {
     double sq = 0.0;
     size_t rows = 0;
     for (const auto& [target_id, block] : p->residuals) {
-      sq += BlockSquaredNorm(*p, target_id, block);
+      sq += BlockSquaredNorm(*p, target_id, block, &scratch);
       rows += static_cast<size_t>(block.cost->num_residuals());
     }
     s.rms_residual = rows > 0 ? std::sqrt(sq / static_cast<double>(rows)) : 0.0;
@@ -879,8 +880,8 @@ bool WindowOptimizer::Solve(int max_iterations, double* initial_cost, double* fi
   return true;
 }
 
-double WindowOptimizer::BlockSquaredNorm(const PointState& p, int target_id,
-                                         const Block& block) const {
+double WindowOptimizer::BlockSquaredNorm(const PointState& p, int target_id, const Block& block,
+                                         std::vector<double>* scratch) const {
   const double* host_pose = FindKeyframe(p.host_id)->pose;
   const double* target_pose = FindKeyframe(target_id)->pose;
   // Usually the solve's last evaluation is at this state (not where the inverse-depth bound moved
@@ -888,10 +889,10 @@ double WindowOptimizer::BlockSquaredNorm(const PointState& p, int target_id,
   double sq = 0.0;
   if (!block.compressed ||
       !block.compressed->CachedSquaredNorm(host_pose, target_pose, p.inverse_depth, &sq)) {
-    std::vector<double> residuals(block.cost->num_residuals());
-    block.cost->EvaluateTangent(host_pose, target_pose, p.inverse_depth, residuals.data(), nullptr,
+    scratch->resize(block.cost->num_residuals());
+    block.cost->EvaluateTangent(host_pose, target_pose, p.inverse_depth, scratch->data(), nullptr,
                                 nullptr, nullptr);
-    for (double r : residuals) sq += r * r;
+    for (double r : *scratch) sq += r * r;
   }
   return sq;
 }
@@ -900,10 +901,11 @@ int WindowOptimizer::GateOutliers() {
   // Block costs per target keyframe at the current estimate.
   std::map<int, std::vector<double>> costs_by_target;
   std::vector<std::vector<std::pair<int, double>>> per_point(points_.size());
+  std::vector<double> scratch;
   for (size_t i = 0; i < points_.size(); ++i) {
     const PointState& p = *points_[i];
     for (const auto& [target_id, block] : p.residuals) {
-      const double sq = BlockSquaredNorm(p, target_id, block);
+      const double sq = BlockSquaredNorm(p, target_id, block, &scratch);
       costs_by_target[target_id].push_back(sq);
       per_point[i].emplace_back(target_id, sq);
     }

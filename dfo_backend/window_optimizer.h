@@ -357,8 +357,10 @@ class WindowOptimizer {
   void MarginalizeKeyframe(int position, WindowResult* result);
   void RemovePointsWithoutResiduals();
   KeyframeState* FindKeyframe(int id) const;
-  // |r|^2 of `block` (the point's block into keyframe target_id) at the current estimate.
-  double BlockSquaredNorm(const PointState& p, int target_id, const Block& block) const;
+  // |r|^2 of `block` (the point's block into keyframe target_id) at the current estimate;
+  // `scratch` holds the residuals when they must be evaluated (reused across calls).
+  double BlockSquaredNorm(const PointState& p, int target_id, const Block& block,
+                          std::vector<double>* scratch) const;
 
   WindowOptions options_;
   std::unique_ptr<ceres::LossFunction> loss_;
