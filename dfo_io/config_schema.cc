@@ -48,6 +48,11 @@ ConfigSchema BuildSchema() {
   s.AddBool("dataset.depth", false,
             "Load the dataset's ground-truth depth maps with the images (TUM depth/, KITTI "
             "depth_0/), for depth metrics");
+  s.AddString("dataset.depth_dir", "",
+              "Folder of depth maps named after the images (<image stem>.png, 16-bit, metres x "
+              "256, 0 = none; as dfo_eval stereo-depth writes them), of the images' size, used "
+              "instead of the dataset's own (and by frontend.depth auto); every frame used needs "
+              "one; \"\" = the dataset's own; not for video");
   s.AddDouble("dataset.tum_max_depth_diff", 0.02,
               "TUM: max time difference in seconds between an rgb and its depth image "
               "(associate.py)")
@@ -550,6 +555,7 @@ DatasetOptions DatasetOptionsFromConfig(const Config& config) {
   o.processing_width = config.GetInt("dataset.processing_width");
   o.color = config.GetBool("dataset.color");
   o.depth = config.GetBool("dataset.depth");
+  o.depth_dir = config.GetString("dataset.depth_dir");
   o.tum_max_depth_diff = config.GetDouble("dataset.tum_max_depth_diff");
   o.tum_gt_mode = config.GetString("dataset.tum_gt_mode");
   o.tum_max_gt_diff = config.GetDouble("dataset.tum_max_gt_diff");

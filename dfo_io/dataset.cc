@@ -42,6 +42,11 @@ void DatasetOptions::Check() const {
   if (!keep_native && image_height <= 0) {
     fail("dataset.image_height = " + std::to_string(image_height) + " violates > 0");
   }
+  if (!depth_dir.empty() && type == "video") {
+    fail("dataset.depth_dir = '" + depth_dir +
+         "' violates empty for dataset.type video (its frames have no image files to name depth "
+         "maps after)");
+  }
   if (processing_width < 0) {
     fail("dataset.processing_width = " + std::to_string(processing_width) + " violates >= 0");
   }
@@ -86,6 +91,30 @@ Sequence Sequence::WithOutputSize(int width, int height) const {
   out.options_.image_width = width;
   out.options_.image_height = height;
   out.options_.Check();
+  return out;
+}
+
+Sequence Sequence::WithDepthFolder(const std::string& folder) const {
+  std::error_code ec;
+  if (!fs::is_directory(folder, ec)) {
+    throw InputError("dataset.depth_dir = '" + folder + "': no such folder");
+  }
+  Sequence out = *this;
+  for (size_t i = 0; i < out.frames_.size(); ++i) {
+    FrameInfo& f = out.frames_[i];
+    if (f.video_frame >= 0) {
+      throw ConfigError("dataset.depth_dir = '" + folder +
+                        "': frames decoded from a video have no image files to name depth maps "
+                        "after");
+    }
+    const fs::path map = fs::path(folder) / (fs::path(f.image_path).stem().string() + ".png");
+    if (!fs::is_regular_file(map, ec)) {
+      throw InputError(FramePrefix(i) + "dataset.depth_dir = '" + folder + "' has no depth map " +
+                       map.string() + " for image " + f.image_path);
+    }
+    f.depth_path = map.string();
+  }
+  out.depth_scale_ = kDepthFolderScale;
   return out;
 }
 
@@ -259,12 +288,22 @@ void Sequence::Validate() const {
   }
 }
 
-Sequence OpenSequence(const DatasetOptions& options) {
-  options.Check();
+namespace {
+
+Sequence OpenByType(const DatasetOptions& options) {
   if (options.type == "kitti") return OpenKittiSequence(options);
   if (options.type == "tum") return OpenTumSequence(options);
   if (options.type == "video") return OpenVideoSequence(options);
   return OpenFolderSequence(options);
+}
+
+}  // namespace
+
+Sequence OpenSequence(const DatasetOptions& options) {
+  options.Check();
+  Sequence sequence = OpenByType(options);
+  if (options.depth_dir.empty()) return sequence;
+  return sequence.WithDepthFolder(options.depth_dir);
 }
 
 ImageF ResizeDepth(const ImageF& depth, int width, int height) {

@@ -20,6 +20,8 @@
 //            optional camera.yaml; depth scale 5000 (see tum_dataset.h).
 //  - folder: <path>/camera.yaml plus image files sorted by name (see folder_dataset.h).
 //  - video:  <path> is a video file, its camera.yaml beside it (see video_dataset.h).
+// dataset.depth_dir, when set, names a folder of depth maps (<image stem>.png, metres x 256) that
+// replaces the dataset's own (kitti, tum, folder).
 // dataset.camera, when set, names the camera.yaml of a folder, TUM sequence or video instead.
 //
 // Every error about the data is a dfo::InputError naming the file and the line or frame index.
@@ -43,6 +45,10 @@ namespace dfo::io {
 class Undistorter;  // dfo_io/lens.h
 class VideoReader;  // dfo_io/video_reader.h
 
+// 16-bit depth maps of KITTI's depth_N/ folders and of DatasetOptions::depth_dir: metres =
+// value / kDepthFolderScale.
+constexpr double kDepthFolderScale = 256.0;
+
 // What to open and how to load it. Mirrors the `dataset` section of the configuration
 // (DatasetOptionsFromConfig in dfo_io/config_schema.h).
 struct DatasetOptions {
@@ -64,6 +70,11 @@ struct DatasetOptions {
   int processing_width = 0;
   bool color = false;  // true: RGB images (KITTI image_2 when present); false: gray
   bool depth = false;  // true: load ground-truth depth maps with the images, if any
+  // "" = the dataset's own depth maps (KITTI depth_N/, TUM depth/). Otherwise a folder of depth
+  // maps named after the images (<image file stem>.png, 16-bit, metres x 256, 0 = none: what
+  // `dfo_eval stereo-depth` and `dfo_train --write-depth` write), aligned with the images as
+  // stored and of their size, used instead; every selected frame needs one. Not for video.
+  std::string depth_dir;
 
   // TUM RGB-D association (seconds), see tum_dataset.h.
   double tum_max_depth_diff = 0.02;         // rgb <-> depth, as TUM's associate.py (0.02 s)
@@ -177,6 +188,12 @@ class Sequence {
   // it is). Nothing is read again, so a camera file given as a pipe (--set
   // dataset.camera=<(...)) serves both.
   Sequence WithOutputSize(int width, int height) const;
+
+  // The same recording with its depth maps taken from `folder` (DatasetOptions::depth_dir):
+  // each frame's map is <folder>/<image file stem>.png, metres x 256. Throws InputError naming
+  // dataset.depth_dir when the folder is missing or a frame has no map there (the first such
+  // frame and file), ConfigError for frames decoded from a video.
+  Sequence WithDepthFolder(const std::string& folder) const;
 
  private:
   std::string FramePrefix(size_t i) const;

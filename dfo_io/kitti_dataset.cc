@@ -271,7 +271,7 @@ Sequence OpenKittiSequence(const DatasetOptions& options) {
   const PinholeCamera camera = CameraFromProjection(row->second, width, height);
   CheckCalibration(camera, calib_path + " row " + cam_label);
   return Sequence("KITTI " + seq_name + (cam == 2 ? " (image_2)" : " (image_0)"), std::move(frames),
-                  camera, /*depth_scale=*/256.0, options);
+                  camera, kDepthFolderScale, options);
 }
 
 }  // namespace dfo::io

@@ -253,6 +253,76 @@ TEST(KittiDataset, DepthFolderIsReadAsMetres) {
   EXPECT_FLOAT_EQ(frame.depth_m(0, 0), 0.0f);
 }
 
+// dataset.depth_dir: maps named after the images, metres x 256, replace the dataset's own.
+TEST(DepthDir, MapsNamedAfterTheImagesReplaceTheDatasetsOwn) {
+  const KittiFixture f = MakeKitti("kitti_depth_dir", 3);
+  const std::string maps = test::MakeTempDir("kitti_depth_dir_maps");
+  for (int i = 0; i < f.n; ++i) {
+    char name[32];
+    std::snprintf(name, sizeof(name), "/%06d.png", i);
+    WriteU16(f.seq_dir + "/depth_0" + name, ImageU16(f.width, f.height, 1, 256 * 10));
+    WriteU16(maps + name, ImageU16(f.width, f.height, 1, static_cast<uint16_t>(256 * (2 + i))));
+  }
+  DatasetOptions o = KittiOptions(f);
+  o.depth = true;
+  o.keep_native = true;
+  EXPECT_FLOAT_EQ(OpenSequence(o).Load(1).depth_m(5, 5), 10.0f);  // the sequence's depth_0/
+  o.depth_dir = maps;
+  const Sequence seq = OpenSequence(o);
+  ASSERT_TRUE(seq.has_depth());
+  EXPECT_EQ(seq.frame(2).depth_path, maps + "/000002.png");
+  EXPECT_FLOAT_EQ(seq.Load(1).depth_m(5, 5), 3.0f);
+  EXPECT_FLOAT_EQ(seq.Load(2).depth_m(5, 5), 4.0f);
+
+  // A folder dataset (images img_10.png ...) gets them by the images' names too, in metres x 256.
+  const std::string root = test::MakeTempDir("folder_depth_dir");
+  WriteText(root + "/camera.yaml", "fx: 30\nfy: 31\ncx: 15.5\ncy: 11.5\nwidth: 32\nheight: 24\n");
+  const std::string folder_maps = root + "_maps";
+  fs::create_directories(folder_maps);
+  for (int i = 0; i < 2; ++i) {
+    WriteImage(root + "/img_" + std::to_string(10 + i) + ".png", Pattern(32, 24, i));
+    WriteU16(folder_maps + "/img_" + std::to_string(10 + i) + ".png", ImageU16(32, 24, 1, 256 * 5));
+  }
+  DatasetOptions folder;
+  folder.type = "folder";
+  folder.path = root;
+  folder.keep_native = true;
+  folder.depth = true;
+  folder.depth_dir = folder_maps;
+  EXPECT_FLOAT_EQ(OpenSequence(folder).Load(1).depth_m(3, 3), 5.0f);
+}
+
+TEST(DepthDir, MissingFolderMissingMapAndVideoAreNamed) {
+  const KittiFixture f = MakeKitti("kitti_depth_dir_bad", 3);
+  DatasetOptions o = KittiOptions(f);
+  o.depth_dir = f.root + "/no_such_maps";
+  ExpectInputError([&] { OpenSequence(o); },
+                   {"dataset.depth_dir = '" + o.depth_dir + "'", "no such folder"});
+  const std::string maps = test::MakeTempDir("kitti_depth_dir_partial");
+  WriteU16(maps + "/000000.png", ImageU16(f.width, f.height, 1, 256));
+  o.depth_dir = maps;
+  ExpectInputError([&] { OpenSequence(o); },
+                   {"frame 1", "has no depth map " + maps + "/000001.png", "000001.png"});
+  // Frames outside the range used need no map.
+  o.last = 0;
+  EXPECT_NO_THROW(OpenSequence(o));
+  // A map of another size than the images is refused when it is read, naming it.
+  WriteU16(maps + "/000000.png", ImageU16(f.width / 2, f.height, 1, 256));
+  o.depth = true;
+  ExpectInputError([&] { OpenSequence(o).Load(0); },
+                   {maps + "/000000.png", "expected the image size 40x30"});
+  DatasetOptions video;
+  video.type = "video";
+  video.path = "/x.mp4";
+  video.depth_dir = maps;
+  try {
+    video.Check();
+    FAIL() << "video with depth_dir accepted";
+  } catch (const ConfigError& e) {
+    EXPECT_NE(std::string(e.what()).find("dataset.depth_dir"), std::string::npos) << e.what();
+  }
+}
+
 TEST(KittiErrors, MissingFolder) {
   DatasetOptions o;
   o.path = "/nonexistent/kitti";
