@@ -381,6 +381,10 @@ int RunTraj(int argc, char** argv) {
               << steps.ratios.size() << " stretches of " << steps.segment_frames
               << " frames: estimated / true path length after the alignment)\n";
   }
+  std::cout << "ATE split     rmse " << Fixed(evaluation.ate_split.directions_rmse)
+            << " m with the true step lengths, " << Fixed(evaluation.ate_split.lengths_rmse)
+            << " m with the true step directions (what the estimate's directions / step lengths "
+               "alone cost)\n";
   if (opt.Has("--plot")) std::cout << "plot:         " << opt.Get("--plot", "") << "\n";
   return 0;
 }

@@ -226,6 +226,12 @@ void PrintComparison(const apps::SequenceRunResult& result, const apps::RunOutpu
         "step scale (log std, 20 frames)",
         [](const apps::RunEvaluation& e) { return e.sim3.step_scale.log_std; }, 3);
   }
+  row(
+      "ATE, true step lengths [m]",
+      [](const apps::RunEvaluation& e) { return e.sim3.ate_split.directions_rmse; }, 4);
+  row(
+      "ATE, true step directions [m]",
+      [](const apps::RunEvaluation& e) { return e.sim3.ate_split.lengths_rmse; }, 4);
   std::fflush(stdout);
 }
 

@@ -475,4 +475,55 @@ ScaleDriftResult ComputeStepScale(const Trajectory& ground_truth, const Trajecto
   return result;
 }
 
+namespace {
+
+// The path that starts at `start` and takes, at step i, the direction of direction_source's step
+// i with the length of length_source's step i; the timestamps are direction_source's.
+Trajectory RebuiltPath(const Trajectory& direction_source, const Trajectory& length_source,
+                       const Eigen::Vector3d& start) {
+  Trajectory out;
+  Eigen::Vector3d p = start;
+  out.Add(direction_source[0].timestamp_ns, SE3d(SO3d(), p));
+  for (size_t i = 1; i < direction_source.size(); ++i) {
+    const Eigen::Vector3d d = direction_source[i].world_from_cam.translation() -
+                              direction_source[i - 1].world_from_cam.translation();
+    const double length = RobustNorm(length_source[i].world_from_cam.translation() -
+                                     length_source[i - 1].world_from_cam.translation());
+    const double norm = RobustNorm(d);
+    if (norm > 0.0 && std::isfinite(norm)) p += d * (length / norm);
+    out.Add(direction_source[i].timestamp_ns, SE3d(SO3d(), p));
+  }
+  return out;
+}
+
+// ATE rmse of `path` aligned onto the ground truth; NaN when it cannot be aligned.
+double AlignedAteRmse(const Trajectory& ground_truth, const Trajectory& path,
+                      const TrajectoryAlignmentOptions& alignment) {
+  try {
+    const TrajectoryAlignment aligned = AlignTrajectory(path, ground_truth, alignment);
+    return ComputeAte(ground_truth, aligned.aligned_estimate).stats.rmse;
+  } catch (const InputError&) {
+    return std::numeric_limits<double>::quiet_NaN();
+  }
+}
+
+}  // namespace
+
+AteSplit ComputeAteSplit(const Trajectory& ground_truth, const Trajectory& estimate,
+                         const TrajectoryAlignmentOptions& alignment) {
+  CheckSameSize(ground_truth, estimate, "ATE split");
+  if (ground_truth.size() < 2) {
+    throw InputError("ATE split: needs at least 2 poses, got " +
+                     std::to_string(ground_truth.size()));
+  }
+  AteSplit split;
+  split.directions_rmse = AlignedAteRmse(
+      ground_truth, RebuiltPath(estimate, ground_truth, estimate[0].world_from_cam.translation()),
+      alignment);
+  split.lengths_rmse = AlignedAteRmse(
+      ground_truth,
+      RebuiltPath(ground_truth, estimate, ground_truth[0].world_from_cam.translation()), alignment);
+  return split;
+}
+
 }  // namespace dfo

@@ -14,6 +14,7 @@
 #include <utility>
 #include <vector>
 
+#include "dfo_core/alignment.h"
 #include "dfo_core/trajectory.h"
 
 namespace dfo {
@@ -180,6 +181,21 @@ ScaleDriftResult ComputeScaleDrift(const Trajectory& ground_truth, const Traject
 // Throws InputError when the trajectories differ in size or segment_frames is not >= 1.
 ScaleDriftResult ComputeStepScale(const Trajectory& ground_truth, const Trajectory& estimate,
                                   int segment_frames = 20);
+
+// Where an estimate's ATE comes from. Its path is rebuilt step by step (pose i to i + 1) twice:
+// with its own step directions and the ground truth's step lengths (`directions_rmse`: what the
+// errors of heading and direction alone cost), and with its own step lengths along the ground
+// truth's step directions (`lengths_rmse`: what the errors of the step lengths, a monocular
+// run's scale drift, alone cost); each rebuilt path is aligned as `alignment` says and measured
+// by its ATE rmse. A step whose direction source does not move is a step of zero. A figure whose
+// rebuilt path cannot be aligned (collinear or coinciding positions) is NaN. Throws InputError
+// when the sizes differ or fewer than 2 poses are given.
+struct AteSplit {
+  double directions_rmse = 0.0;  // the estimate's directions, the truth's step lengths
+  double lengths_rmse = 0.0;     // the estimate's step lengths, the truth's directions
+};
+AteSplit ComputeAteSplit(const Trajectory& ground_truth, const Trajectory& estimate,
+                         const TrajectoryAlignmentOptions& alignment);
 
 }  // namespace dfo
 

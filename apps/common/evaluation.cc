@@ -45,6 +45,7 @@ TrajectoryEvaluation EvaluateTrajectory(const Trajectory& ground_truth, const Tr
   e.snippet = ComputeSnippetAte(ground_truth, aligned);
   e.scale_drift = ComputeScaleDrift(ground_truth, aligned);
   e.step_scale = ComputeStepScale(ground_truth, aligned);
+  e.ate_split = ComputeAteSplit(ground_truth, estimate, align);
   e.gt_path_length_m = ground_truth.PathLength();
   return e;
 }
@@ -148,6 +149,8 @@ io::JsonValue EvaluationToJson(const TrajectoryEvaluation& e) {
   out.Set("step_scale_max", e.step_scale.max);
   out.Set("step_scale_ratios", array(e.step_scale.ratios));
   out.Set("explained_spread", ExplainedSpread(e));
+  out.Set("ate_rmse_directions_only", e.ate_split.directions_rmse);
+  out.Set("ate_rmse_lengths_only", e.ate_split.lengths_rmse);
   io::JsonValue warnings = io::JsonValue::Array();
   for (const std::string& w : EvaluationWarnings(e)) warnings.Push(w);
   out.Set("warnings", std::move(warnings));

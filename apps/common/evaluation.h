@@ -12,7 +12,9 @@
 //   snippet_num, snippet_ate_mean, snippet_ate_std, scale_drift_segment_m, scale_drift_log_std,
 //   scale_drift_min, scale_drift_max, scale_drift_ratios (50 m stretches), step_scale_frames,
 //   step_scale_log_std, step_scale_min, step_scale_max, step_scale_ratios (20-frame stretches),
-//   explained_spread (1 - ATE rmse^2 / the ground truth's spread^2), warnings (EvaluationWarnings)
+//   explained_spread (1 - ATE rmse^2 / the ground truth's spread^2),
+//   ate_rmse_directions_only / ate_rmse_lengths_only (ComputeAteSplit: the ATE with the truth's
+//   step lengths / step directions), warnings (EvaluationWarnings)
 #ifndef DFO_APPS_COMMON_EVALUATION_H_
 #define DFO_APPS_COMMON_EVALUATION_H_
 
@@ -49,6 +51,7 @@ struct TrajectoryEvaluation {
   SnippetAteResult snippet;
   ScaleDriftResult scale_drift;   // 50 m stretches
   ScaleDriftResult step_scale;    // 20-frame stretches (ComputeStepScale)
+  AteSplit ate_split;             // ComputeAteSplit of the estimate as given
   double gt_path_length_m = 0.0;  // length of the ground-truth path (world units)
   // Poses of the estimate that were tracked (dfo_run: frames not lost; lost frames hold the last
   // good pose); 0 = not known (dfo_eval).

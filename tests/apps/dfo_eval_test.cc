@@ -33,12 +33,20 @@ void ExpectCleanFailure(const CommandResult& r, const std::string& fragment) {
   EXPECT_EQ(r.err.find('\n'), r.err.size() - 1) << "more than one line: " << r.err;
 }
 
-const char* kJsonKeys[] = {"num_poses",        "scale",
-                           "ate_rmse",         "ate_mean",
-                           "ate_median",       "ate_max",
-                           "rpe_trans_rmse",   "rpe_rot_rmse_deg",
-                           "kitti_t_rel_pct",  "kitti_r_rel_deg_per_100m",
-                           "snippet_ate_mean", "snippet_ate_std"};
+const char* kJsonKeys[] = {"num_poses",
+                           "scale",
+                           "ate_rmse",
+                           "ate_mean",
+                           "ate_median",
+                           "ate_max",
+                           "rpe_trans_rmse",
+                           "rpe_rot_rmse_deg",
+                           "kitti_t_rel_pct",
+                           "kitti_r_rel_deg_per_100m",
+                           "snippet_ate_mean",
+                           "snippet_ate_std",
+                           "ate_rmse_directions_only",
+                           "ate_rmse_lengths_only"};
 
 // A curving trajectory written as KITTI, and the same scaled by 2 about the origin.
 void WriteScaledPair(const std::string& dir, int n) {
@@ -168,6 +176,9 @@ TEST(DfoEval, Sim3AlignmentRemovesScaleOfSyntheticPair) {
   EXPECT_LT(j["ate_rmse"].AsNumber(), 1e-9);
   EXPECT_LT(j["rpe_trans_rmse"].AsNumber(), 1e-9);
   EXPECT_LT(j["snippet_ate_mean"].AsNumber(), 1e-9);
+  EXPECT_LT(j["ate_rmse_directions_only"].AsNumber(), 1e-9);
+  EXPECT_LT(j["ate_rmse_lengths_only"].AsNumber(), 1e-9);
+  EXPECT_NE(r.out.find("ate_rmse_lengths_only"), std::string::npos);
   EXPECT_TRUE(j["kitti_t_rel_pct"].IsNull());  // 60 m: no 100 m segment
   EXPECT_TRUE(j["kitti_r_rel_deg_per_100m"].IsNull());
 

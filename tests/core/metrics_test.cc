@@ -405,5 +405,66 @@ TEST(ScaleDrift, ShortRunsGiveNaNAndBadInputThrows) {
   EXPECT_THROW(ComputeScaleDrift(gt, StraightLine(199, 0.2)), InputError);
 }
 
+// A path whose steps are those of `gt` with step i's length times length_factor(i) and its
+// direction turned by yaw(i) radians about the vertical axis (y), from gt's first position.
+template <typename LengthFactor, typename Yaw>
+Trajectory ReshapedSteps(const Trajectory& gt, LengthFactor length_factor, Yaw yaw) {
+  Trajectory out;
+  Eigen::Vector3d p = gt[0].world_from_cam.translation();
+  out.Add(gt[0].timestamp_ns, SE3d(SO3d(), p));
+  for (size_t i = 1; i < gt.size(); ++i) {
+    const Eigen::Vector3d d =
+        gt[i].world_from_cam.translation() - gt[i - 1].world_from_cam.translation();
+    p += SO3d::Exp(Eigen::Vector3d(0, yaw(i), 0)) * d * length_factor(i);
+    out.Add(gt[i].timestamp_ns, SE3d(SO3d(), p));
+  }
+  return out;
+}
+
+TEST(AteSplit, SeparatesStepLengthsFromDirections) {
+  const Trajectory gt = Curvy(200, 7);
+  TrajectoryAlignmentOptions sim3;
+  sim3.type = AlignmentType::kSim3;
+  const auto ate = [&](const Trajectory& est) {
+    return ComputeAte(gt, AlignTrajectory(est, gt, sim3).aligned_estimate).stats.rmse;
+  };
+  // Exact directions, the step length growing 1 -> 1.3 along the run (a monocular scale drift),
+  // in a frame of its own (scaled 3x, moved): all of the ATE is the lengths'.
+  const Trajectory drift = ReshapedSteps(
+      gt, [](size_t i) { return 3.0 * (1.0 + 0.3 * i / 199.0); }, [](size_t) { return 0.0; });
+  const AteSplit a = ComputeAteSplit(gt, drift, sim3);
+  EXPECT_GT(ate(drift), 1.0);
+  EXPECT_LT(a.directions_rmse, 1e-9);
+  EXPECT_NEAR(a.lengths_rmse, ate(drift), 1e-9);
+  // Exact lengths, the heading turning by a growing yaw (0.1 deg more every step): all of it is
+  // the directions'.
+  const Trajectory heading = ReshapedSteps(
+      gt, [](size_t) { return 1.0; }, [](size_t i) { return 0.1 * kDegToRad * i; });
+  const AteSplit b = ComputeAteSplit(gt, heading, sim3);
+  EXPECT_GT(ate(heading), 1.0);
+  EXPECT_LT(b.lengths_rmse, 1e-9);
+  EXPECT_NEAR(b.directions_rmse, ate(heading), 1e-9);
+  // Both at once: each part is less than the whole.
+  const Trajectory both = ReshapedSteps(
+      gt, [](size_t i) { return 1.0 + 0.3 * i / 199.0; },
+      [](size_t i) { return 0.1 * kDegToRad * i; });
+  const AteSplit c = ComputeAteSplit(gt, both, sim3);
+  EXPECT_GT(c.directions_rmse, 0.5);
+  EXPECT_GT(c.lengths_rmse, 0.5);
+  EXPECT_LT(c.directions_rmse, ate(both));
+  EXPECT_LT(c.lengths_rmse, ate(both));
+
+  // An estimate that does not move: the path with its directions is a point, no alignment: NaN.
+  Trajectory still;
+  for (size_t i = 0; i < gt.size(); ++i) still.Add(gt[i].timestamp_ns, SE3d());
+  EXPECT_TRUE(std::isnan(ComputeAteSplit(gt, still, sim3).directions_rmse));
+  Trajectory shorter = gt;
+  shorter.poses().pop_back();
+  EXPECT_THROW(ComputeAteSplit(gt, shorter, sim3), InputError);
+  Trajectory one;
+  one.Add(0, SE3d());
+  EXPECT_THROW(ComputeAteSplit(one, one, sim3), InputError);
+}
+
 }  // namespace
 }  // namespace dfo
