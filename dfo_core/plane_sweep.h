@@ -20,8 +20,10 @@
 //   std::vector<StereoView> views = {{&image_prev, prev_from_ref}, {&image_next, next_from_ref}};
 //   PlaneSweepResult r = PlaneSweepDepth(image_ref, camera, views, options);
 //
-// This is a diagnostic reference (for depth metrics on real frames); nothing in dfo's pipeline
-// uses it, and ground truth never enters a training loss through it.
+// Two users: `dfo_eval stereo-depth` makes reference depth of real frames from their
+// ground-truth poses with it (for depth metrics; ground truth never enters a training loss
+// through it), and the keyframe stereo (dfo_backend/keyframe_stereo.h) matches each new keyframe
+// against the frames before it at the system's own poses.
 #ifndef DFO_CORE_PLANE_SWEEP_H_
 #define DFO_CORE_PLANE_SWEEP_H_
 
