@@ -400,8 +400,8 @@ int RunDepth(int argc, char** argv) {
       {"--json", "--median-scaling"});
   const std::string gt_dir = opt.Required("--gt");
   const std::string pred_dir = opt.Required("--pred");
-  const double gt_scale = opt.Number("--gt-scale", 256.0);
-  const double pred_scale = opt.Number("--pred-scale", 256.0);
+  const double gt_scale = opt.Number("--gt-scale", io::kDepthFolderScale);
+  const double pred_scale = opt.Number("--pred-scale", io::kDepthFolderScale);
   if (!(gt_scale > 0.0)) throw UsageError("--gt-scale must be > 0");
   if (!(pred_scale > 0.0)) throw UsageError("--pred-scale must be > 0");
   DepthMetricsOptions metrics;
@@ -534,7 +534,7 @@ int RunKeyframeDepth(int argc, char** argv) {
                     {"--folder", "--gt", "--gt-scale", "--min-depth", "--max-depth"}, {"--json"});
   const std::string folder_dir = opt.Required("--folder");
   const std::string gt_dir = opt.Required("--gt");
-  const double gt_scale = opt.Number("--gt-scale", 256.0);
+  const double gt_scale = opt.Number("--gt-scale", io::kDepthFolderScale);
   const double min_depth = opt.Number("--min-depth", 1e-3);
   const double max_depth = opt.Number("--max-depth", 80.0);
   if (!(gt_scale > 0.0)) throw UsageError("--gt-scale must be > 0");
@@ -708,7 +708,7 @@ int RunStereoDepth(int argc, char** argv) {
     }
     const PlaneSweepResult result = PlaneSweepDepth(image_of(i), camera, views, sweep);
     const std::string name = fs::path(sequence.frame(i).image_path).stem().string() + ".png";
-    io::WriteDepthPng((fs::path(output) / name).string(), result.depth, 256.0);
+    io::WriteDepthPng((fs::path(output) / name).string(), result.depth, io::kDepthFolderScale);
     // The picture: the frame (grey) above its depth.
     const ImageF& grey = image_of(i);
     const ImageU8 colour = io::ColourDepth(result.depth, 2.0, 150.0);

@@ -407,7 +407,7 @@ void WriteDepth(learned::Trainer& trainer, const Args& args, const std::string& 
         std::filesystem::path(tum ? seq.frame(i).depth_path : seq.frame(i).image_path)
             .filename()
             .string();
-    io::WriteDepthPng(args.write_depth_dir + "/" + name, out, 256.0);
+    io::WriteDepthPng(args.write_depth_dir + "/" + name, out, io::kDepthFolderScale);
     ++written;
   }
   std::cout << "dfo_train: wrote " << written << " depth maps to " << args.write_depth_dir

@@ -45,7 +45,8 @@ namespace dfo::io {
 class Undistorter;  // dfo_io/lens.h
 class VideoReader;  // dfo_io/video_reader.h
 
-// 16-bit depth maps of KITTI's depth_N/ folders and of DatasetOptions::depth_dir: metres =
+// 16-bit depth maps of KITTI's depth_N/ folders (dfo_synth writes them so) and of
+// DatasetOptions::depth_dir (dfo_eval stereo-depth, dfo_train --write-depth): metres =
 // value / kDepthFolderScale.
 constexpr double kDepthFolderScale = 256.0;
 

@@ -12,6 +12,7 @@
 #include <vector>
 
 #include "dfo_core/error.h"
+#include "dfo_io/dataset.h"
 #include "dfo_io/image_io.h"
 #include "dfo_io/trajectory_io.h"
 
@@ -20,8 +21,6 @@ namespace dfo::io {
 namespace fs = std::filesystem;
 
 namespace {
-
-constexpr double kDepthScale = 256.0;  // KITTI depth PNG convention: metres = value / 256
 
 void MakeDirs(const fs::path& dir) {
   std::error_code ec;
@@ -138,7 +137,7 @@ SynthWriteSummary WriteSyntheticSequence(
         WriteImage((seq_dir / "image_0" / name).string(), frame.gray);
         if (options.write_rgb) WriteImage((seq_dir / "image_2" / name).string(), frame.rgb);
         if (options.write_depth) {
-          WriteDepthPng((seq_dir / "depth_0" / name).string(), frame.depth, kDepthScale);
+          WriteDepthPng((seq_dir / "depth_0" / name).string(), frame.depth, kDepthFolderScale);
         }
         done.fetch_add(1);
       } catch (...) {
