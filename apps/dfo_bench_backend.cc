@@ -17,6 +17,7 @@
 #include <cstdlib>
 #include <exception>
 #include <limits>
+#include <map>
 #include <random>
 #include <string>
 #include <vector>
@@ -28,6 +29,7 @@
 #include "dfo_core/synthetic/synthetic_sequence.h"
 #include "dfo_frontend/depth_source.h"
 #include "dfo_frontend/feature_source.h"
+#include "dfo_io/dataset.h"
 
 namespace dfo {
 namespace {
@@ -63,11 +65,21 @@ options:
                          per axis; 0 = ground-truth poses, to see where the BA's optimum lies)
   --fej                  WindowOptions::first_estimate_jacobians = true
   --prior-weight W       WindowOptions::prior_weight (default 1)
+  --pose-prior W         WindowOptions::pose_prior_weight (default 0; large: relative poses held)
+  --gate-factor F        WindowOptions::outlier_gate_factor
+  --loss-scale S         WindowOptions::loss_scale
   --min-point-fraction F WindowOptions::min_point_fraction (1 = always the oldest leaves)
   --eigen-floor F        WindowOptions::relative_eigenvalue_floor
   --solver NAME          sparse_schur (default) or dense_schur
   --no-marginalization   drop instead of marginalising
   --seed S               synthetic sequence seed (default 1)
+  --kitti ROOT           real frames instead: KITTI odometry root (sequences/NN/, poses/NN.txt),
+                         keyframes at the ground-truth poses, depth from --depth-dir
+  --sequence NN          KITTI sequence (default 00)
+  --first F              first frame (default 0); keyframes F, F + step, ...
+  --depth-dir DIR        depth maps named after the images (metres x 256, as `dfo_eval
+                         stereo-depth` writes): the keyframes' depth
+  --width W              processing width for --kitti (default 416; aspect ratio kept)
   --verbose              one line per keyframe (times, costs, window error)
   --help                 this text
 )";
@@ -80,6 +92,8 @@ struct Args {
   HandmadeFeatureOptions features;
   bool verbose = false;
   bool help = false;
+  std::string kitti, sequence = "00", depth_dir;
+  int first = 0, width = 416;
   WindowOptions window;
 };
 
@@ -110,32 +124,45 @@ Args Parse(int argc, char** argv) {
       .Number("--perturbation", &args.perturbation, 0.0, inf)
       .Flag("--fej", &w.first_estimate_jacobians)
       .Number("--prior-weight", &w.prior_weight, -inf, inf)
+      .Number("--pose-prior", &w.pose_prior_weight, -inf, inf)
+      .Number("--gate-factor", &w.outlier_gate_factor, -inf, inf)
+      .Number("--loss-scale", &w.loss_scale, -inf, inf)
       .Number("--min-point-fraction", &w.min_point_fraction, -inf, inf)
       .Number("--eigen-floor", &w.relative_eigenvalue_floor, -inf, inf)
       .Value("--solver", &w.linear_solver)
       .Flag("--no-marginalization", &no_marginalization)
       .Flag("--verbose", &args.verbose)
-      .Int("--seed", &args.seed, 0, std::numeric_limits<int>::max());
+      .Int("--seed", &args.seed, 0, std::numeric_limits<int>::max())
+      .Value("--kitti", &args.kitti)
+      .Value("--sequence", &args.sequence)
+      .Int("--first", &args.first, 0, std::numeric_limits<int>::max())
+      .Value("--depth-dir", &args.depth_dir)
+      .Int("--width", &args.width, 8, 8192);
   parser.Parse(argc, argv);
   if (args.help) return args;
   if (no_marginalization) w.marginalization = false;
+  if (!args.kitti.empty() && args.depth_dir.empty()) {
+    throw ConfigError("--kitti needs --depth-dir (KITTI has no depth maps of its own)");
+  }
   args.window.Check();
   args.features.Check();
   return args;
 }
 
-int Run(const Args& args) {
+// The keyframes' frames (image, depth, camera) and their true poses: the synthetic street
+// sequence rendered in memory, or real frames (--kitti) with depth maps from a folder.
+struct Keyframes {
+  std::vector<Frame> frames;
+  std::map<int, SE3d> world_from_cam;  // by frame index
+  std::string description;
+};
+
+Keyframes SyntheticKeyframes(const Args& args) {
   SyntheticOptions synthetic;
   synthetic.seed = static_cast<uint64_t>(args.seed);
   synthetic.num_frames = (args.keyframes - 1) * args.step + 1;
   const SyntheticSequence sequence(synthetic);
-  HandmadeFeatureSource features(args.features);
-  auto depth = MakeDepthSource("gt");
-  std::mt19937 rng(7);
-  std::normal_distribution<double> noise(0.0, 1.0);
-  std::printf("preparing %d keyframes (every %d frames of %d x %d)...\n", args.keyframes, args.step,
-              synthetic.width, synthetic.height);
-  std::vector<KeyframeData> keyframes;
+  Keyframes out;
   for (int k = 0; k < args.keyframes; ++k) {
     const SyntheticFrame rendered = sequence.RenderFrame(k * args.step, 2);
     Frame frame;
@@ -144,6 +171,63 @@ int Run(const Args& args) {
     frame.image = rendered.gray;
     frame.depth_m = rendered.depth;
     frame.camera = sequence.camera();
+    out.world_from_cam[frame.index] = rendered.world_from_cam;
+    out.frames.push_back(std::move(frame));
+  }
+  char text[128];
+  std::snprintf(text, sizeof(text), "the synthetic street sequence (seed %d), %d x %d", args.seed,
+                synthetic.width, synthetic.height);
+  out.description = text;
+  return out;
+}
+
+Keyframes KittiKeyframes(const Args& args) {
+  io::DatasetOptions options;
+  options.type = "kitti";
+  options.path = args.kitti;
+  options.sequence = args.sequence;
+  options.first = args.first;
+  options.last = args.first + (args.keyframes - 1) * args.step;
+  options.step = args.step;
+  options.depth = true;
+  options.depth_dir = args.depth_dir;
+  io::Sequence sequence = io::OpenSequence(options);
+  const auto [width, height] = io::ProcessingSize(sequence.native_camera(), args.width, 8);
+  sequence = sequence.WithOutputSize(width, height).WithDepthFolder(args.depth_dir);
+  Keyframes out;
+  for (size_t i = 0; i < sequence.size(); ++i) {
+    io::LoadedFrame loaded = sequence.Load(i);
+    if (!loaded.world_from_cam) {
+      throw InputError("KITTI " + args.sequence + " frame " +
+                       std::to_string(sequence.frame(i).source_index) + " has no ground truth");
+    }
+    Frame frame;
+    frame.index = sequence.frame(i).source_index;
+    frame.timestamp_ns = loaded.timestamp_ns;
+    frame.image = std::move(loaded.image);
+    frame.depth_m = std::move(loaded.depth_m);
+    frame.camera = loaded.camera;
+    out.world_from_cam[frame.index] = *loaded.world_from_cam;
+    out.frames.push_back(std::move(frame));
+  }
+  out.description = "KITTI " + args.sequence + " frames " + std::to_string(options.first) + "-" +
+                    std::to_string(options.last) + ", " + std::to_string(width) + " x " +
+                    std::to_string(height) + ", depth from " + args.depth_dir;
+  return out;
+}
+
+int Run(const Args& args) {
+  const Keyframes source = args.kitti.empty() ? SyntheticKeyframes(args) : KittiKeyframes(args);
+  const auto true_pose = [&](int index) { return source.world_from_cam.at(index); };
+  HandmadeFeatureSource features(args.features);
+  auto depth = MakeDepthSource("gt");
+  std::mt19937 rng(7);
+  std::normal_distribution<double> noise(0.0, 1.0);
+  std::printf("preparing %zu keyframes (every %d frames of %s)...\n", source.frames.size(),
+              args.step, source.description.c_str());
+  std::vector<KeyframeData> keyframes;
+  for (size_t k = 0; k < source.frames.size(); ++k) {
+    const Frame& frame = source.frames[k];
     KeyframeData kf;
     kf.frame_index = frame.index;
     kf.timestamp_ns = frame.timestamp_ns;
@@ -153,7 +237,7 @@ int Run(const Args& args) {
     for (int i = 0; i < 3; ++i) xi(i) = k == 0 ? 0.0 : args.perturbation * 0.01 * noise(rng);
     for (int i = 3; i < 6; ++i)
       xi(i) = k == 0 ? 0.0 : args.perturbation * 0.1 * M_PI / 180.0 * noise(rng);
-    kf.world_from_cam = rendered.world_from_cam * SE3d::Exp(xi);
+    kf.world_from_cam = true_pose(frame.index) * SE3d::Exp(xi);
     keyframes.push_back(std::move(kf));
   }
 
@@ -177,14 +261,14 @@ int Run(const Args& args) {
     max_blocks = std::max(max_blocks, result.num_residual_blocks);
     // Pose error of the window relative to its oldest keyframe (the gauge).
     const auto& poses = result.keyframe_poses;
-    const SE3d gt_ref = sequence.WorldFromCam(poses.front().first);
+    const SE3d gt_ref = true_pose(poses.front().first);
     // The scale is a gauge freedom of the window without a depth prior: also the error after
     // the least-squares scale of the relative translations (est * scale ~ gt).
     last_trans_err = last_rot_err = last_scaled_err = 0.0;
     double dot = 0.0, est_sq = 0.0;
     for (const auto& [index, pose] : poses) {
       const SE3d est_rel = poses.front().second.Inverse() * pose;
-      const SE3d gt_rel = gt_ref.Inverse() * sequence.WorldFromCam(index);
+      const SE3d gt_rel = gt_ref.Inverse() * true_pose(index);
       const SE3d err = gt_rel.Inverse() * est_rel;
       last_trans_err = std::max(last_trans_err, err.translation().norm());
       last_rot_err = std::max(last_rot_err, err.so3().Angle() * 180.0 / M_PI);
@@ -194,7 +278,7 @@ int Run(const Args& args) {
     last_scale = est_sq > 0.0 ? dot / est_sq : 1.0;
     for (const auto& [index, pose] : poses) {
       const Eigen::Vector3d est_t = (poses.front().second.Inverse() * pose).translation();
-      const Eigen::Vector3d gt_t = (gt_ref.Inverse() * sequence.WorldFromCam(index)).translation();
+      const Eigen::Vector3d gt_t = (gt_ref.Inverse() * true_pose(index)).translation();
       last_scaled_err = std::max(last_scaled_err, (last_scale * est_t - gt_t).norm());
     }
     if (result.marginalized_frame_index >= 0) {
@@ -205,15 +289,17 @@ int Run(const Args& args) {
     if (args.verbose) {
       std::printf(
           "keyframe %4d: %s cost %10.1f -> %10.1f  BA %6.1f ms  marg %5.1f ms  "
-          "points %5d  blocks %6d  gated %4d  window error %.4f m %.4f deg (scale %.4f: %.4f m) "
+          "iterations %2d%s  points %5d  blocks %6d  gated %4d  window error %.4f m %.4f deg "
+          "(scale %.4f: %.4f m) "
           "%s\n",
           poses.back().first, result.optimized ? "ok  " : "FAIL", result.initial_cost,
-          result.final_cost, result.solve_ms, result.marginalization_ms, result.num_points,
-          result.num_residual_blocks, result.num_gated_blocks, last_trans_err, last_rot_err,
-          last_scale, last_scaled_err, result.message.c_str());
+          result.final_cost, result.solve_ms, result.marginalization_ms, result.num_iterations,
+          result.converged ? " converged" : "", result.num_points, result.num_residual_blocks,
+          result.num_gated_blocks, last_trans_err, last_rot_err, last_scale, last_scaled_err,
+          result.message.c_str());
       if (std::getenv("DFO_BENCH_PER_KEYFRAME")) {
         for (const auto& [index, pose] : poses) {
-          const SE3d err = sequence.WorldFromCam(index).Inverse() * pose;
+          const SE3d err = true_pose(index).Inverse() * pose;
           std::printf("    %d: %.3f m %.3f deg\n", index, err.translation().norm(),
                       err.so3().Angle() * 180 / M_PI);
         }
