@@ -82,6 +82,10 @@ options:
   --depth-dir DIR        depth maps named after the images (metres x 256, as `dfo_eval
                          stereo-depth` writes): the keyframes' depth
   --width W              processing width for --kitti (default 416; aspect ratio kept)
+  --follow-window        each new keyframe enters as a tracker on the window's depth would hand
+                         it over: the true motion from the previous keyframe at the window's
+                         current scale, on the window's estimate of that keyframe, with its depth
+                         at that scale (default: at its true pose and depth)
   --verbose              one line per keyframe (times, costs, window error)
   --help                 this text
 )";
@@ -96,6 +100,7 @@ struct Args {
   bool help = false;
   std::string kitti, sequence = "00", depth_dir;
   int first = 0, width = 416;
+  bool follow_window = false;
   WindowOptions window;
 };
 
@@ -139,7 +144,8 @@ Args Parse(int argc, char** argv) {
       .Value("--sequence", &args.sequence)
       .Int("--first", &args.first, 0, std::numeric_limits<int>::max())
       .Value("--depth-dir", &args.depth_dir)
-      .Int("--width", &args.width, 8, 8192);
+      .Int("--width", &args.width, 8, 8192)
+      .Flag("--follow-window", &args.follow_window);
   parser.Parse(argc, argv);
   if (args.help) return args;
   if (no_marginalization) w.marginalization = false;
@@ -259,8 +265,23 @@ int Run(const Args& args) {
   std::map<int, SE3d> final_pose;  // each keyframe's last estimate (as it left the window)
   std::map<int, int64_t> stamp;
   for (const KeyframeData& kf : keyframes) stamp[kf.frame_index] = kf.timestamp_ns;
+  int previous_index = -1;
+  SE3d previous_estimate;  // the window's latest estimate of the previous keyframe
   for (KeyframeData& kf : keyframes) {
+    if (args.follow_window && previous_index >= 0) {
+      // As a tracker on the window's depth would hand it over: the true motion from the previous
+      // keyframe at the window's scale, composed on the window's estimate of that keyframe, and
+      // the keyframe's depth at the window's scale (1 / last_scale: estimate over truth).
+      const double scale = last_scale > 0.0 ? 1.0 / last_scale : 1.0;
+      SE3d step = true_pose(previous_index).Inverse() * true_pose(kf.frame_index);
+      step = SE3d(step.so3(), scale * step.translation());
+      const SE3d perturbation = true_pose(kf.frame_index).Inverse() * kf.world_from_cam;
+      kf.world_from_cam = previous_estimate * step * perturbation;
+      kf.initial_depth_scale = kf.prior_depth_scale = scale;
+    }
+    previous_index = kf.frame_index;
     const WindowResult result = window.AddKeyframe(std::move(kf));
+    if (!result.keyframe_poses.empty()) previous_estimate = result.keyframe_poses.back().second;
     if (window.num_keyframes() < 2) continue;
     if (!result.optimized) ++failures;
     // Steady state only: the window is full from here on.
