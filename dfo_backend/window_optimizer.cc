@@ -851,6 +851,12 @@ bool WindowOptimizer::Solve(int max_iterations, double* initial_cost, double* fi
         summary.termination_type != ceres::USER_SUCCESS) {
       result->converged = false;
     }
+    // Ceres ends a solve with NO_CONVERGENCE at its iteration cap or at its time limit; short of
+    // the cap it was the time.
+    if (summary.termination_type == ceres::NO_CONVERGENCE &&
+        static_cast<int>(summary.iterations.size()) - 1 < solver_options.max_num_iterations) {
+      result->time_limited = true;
+    }
     result->last_step_px = small_step.last_step_px();
   }
   // The inverse-depth lower bound is enforced by projection after the solve (as DSO clamps its

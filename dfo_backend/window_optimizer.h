@@ -270,6 +270,9 @@ struct WindowResult {
   // window.max_iterations or the time limit.
   int num_iterations = 0;
   bool converged = false;
+  // Whether a solve of this step stopped at window.max_solver_time_s (before its iteration cap
+  // and Ceres's tolerances): its result then depends on the machine's speed and load.
+  bool time_limited = false;
   // Image motion of the last accepted step of the last solve (WindowOptions::stop_step_px's
   // measure, pixels at pyramid_level); 0 when no step was accepted.
   double last_step_px = 0.0;

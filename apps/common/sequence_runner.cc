@@ -316,8 +316,8 @@ io::JsonValue KeyframesToJson(const SequenceRunResult& result) {
   io::JsonValue k = io::JsonValue::Object();
   k.Set("count", static_cast<int64_t>(result.keyframes.size()));
   std::map<std::string, int> reasons;
-  int ba_runs = 0, optimized = 0, converged = 0, marginalized = 0, dropped = 0, max_keyframes = 0,
-      max_points = 0, max_blocks = 0;
+  int ba_runs = 0, optimized = 0, converged = 0, time_limited = 0, marginalized = 0, dropped = 0,
+      max_keyframes = 0, max_points = 0, max_blocks = 0;
   std::vector<double> iterations, last_steps;
   io::JsonValue failures = io::JsonValue::Array();
   for (const KeyframeRecord& r : result.keyframes) {
@@ -327,6 +327,7 @@ io::JsonValue KeyframesToJson(const SequenceRunResult& result) {
     ++ba_runs;
     optimized += r.window.optimized ? 1 : 0;
     converged += r.window.converged ? 1 : 0;
+    time_limited += r.window.optimized && r.window.time_limited ? 1 : 0;
     iterations.push_back(r.window.num_iterations);
     last_steps.push_back(r.window.last_step_px);
     const bool left = r.window.marginalized_frame_index >= 0;
@@ -349,6 +350,7 @@ io::JsonValue KeyframesToJson(const SequenceRunResult& result) {
   k.Set("ba_optimized", optimized);
   k.Set("ba_failed", ba_runs - optimized);
   k.Set("ba_converged", converged);
+  k.Set("ba_time_limited", time_limited);
   const auto median = [](std::vector<double> values) {
     if (values.empty()) return 0.0;
     const auto middle = values.begin() + values.size() / 2;
@@ -529,7 +531,8 @@ std::string KeyframeSolveName(const KeyframeRecord& keyframe) {
   const WindowResult& w = keyframe.window;
   if (!keyframe.ba_ran) return "";
   if (!w.optimized) return w.keyframe_poses.size() >= 2 ? "kept_previous" : "";
-  return w.converged ? "converged" : "iteration_limit";
+  if (w.converged) return "converged";
+  return w.time_limited ? "time_limit" : "iteration_limit";
 }
 
 std::string FramesCsvLine(const FrameRecord& f) {

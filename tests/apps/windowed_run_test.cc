@@ -207,7 +207,10 @@ TEST(WindowedRun, NanKeyframeDataDoesNotStopTheRun) {
       continue;
     }
     kept_previous += f.keyframe_solve == "kept_previous" ? 1 : 0;
-    solved += f.keyframe_solve == "converged" || f.keyframe_solve == "iteration_limit" ? 1 : 0;
+    solved += f.keyframe_solve == "converged" || f.keyframe_solve == "iteration_limit" ||
+                      f.keyframe_solve == "time_limit"
+                  ? 1
+                  : 0;
   }
   EXPECT_EQ(kept_previous, failed);
   EXPECT_GE(solved, 1);

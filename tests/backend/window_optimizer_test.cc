@@ -168,18 +168,24 @@ TEST(WindowOptimizerTest, PerturbedPosesAndDepthsReturnToGroundTruth) {
 
 // A step says how many iterations its solves took and whether they converged: from perturbed
 // poses one iteration is cut off by window.max_iterations, 50 end by Ceres's tolerances.
+// The step that adds frame 3, perturbed by 5 cm and 0.01 rad, to a window holding frame 0.
+WindowResult SolvePerturbedPair(const WindowOptions& options) {
+  WindowOptimizer window(options);
+  std::mt19937 rng(1);
+  WindowResult result;
+  for (int index = 0; index <= 3; index += 3) {
+    KeyframeData kf = test::MakeSyntheticKeyframe(Sequence(), index, 2, 0.05);
+    if (index > 0) kf.world_from_cam = Perturb(kf.world_from_cam, 0.05, 0.01, &rng);
+    result = window.AddKeyframe(std::move(kf));
+  }
+  return result;
+}
+
 TEST(WindowOptimizerTest, StepsReportIterationsAndConvergence) {
   for (const int max_iterations : {1, 50}) {
     WindowOptions options = TestOptions();
     options.max_iterations = max_iterations;
-    WindowOptimizer window(options);
-    std::mt19937 rng(1);
-    WindowResult result;
-    for (int index = 0; index <= 3; index += 3) {
-      KeyframeData kf = test::MakeSyntheticKeyframe(Sequence(), index, 2, 0.05);
-      if (index > 0) kf.world_from_cam = Perturb(kf.world_from_cam, 0.05, 0.01, &rng);
-      result = window.AddKeyframe(std::move(kf));
-    }
+    const WindowResult result = SolvePerturbedPair(options);
     ASSERT_TRUE(result.optimized) << result.message;
     if (max_iterations == 1) {
       EXPECT_FALSE(result.converged);
@@ -189,6 +195,23 @@ TEST(WindowOptimizerTest, StepsReportIterationsAndConvergence) {
       EXPECT_TRUE(result.converged) << result.num_iterations << " iterations";
       EXPECT_GT(result.num_iterations, 1);
       EXPECT_LT(result.num_iterations, 2 * max_iterations);
+    }
+  }
+}
+
+// A solve the wall-time limit ends is told apart from one that reached its iteration cap: its
+// result depends on the machine (frames.csv keyframe_solve "time_limit").
+TEST(WindowOptimizerTest, StepsSayWhenTheTimeLimitEndedTheSolve) {
+  for (const bool tiny_limit : {false, true}) {
+    WindowOptions options = TestOptions();
+    options.max_iterations = tiny_limit ? 1000 : 1;
+    options.max_solver_time_s = tiny_limit ? 1e-9 : 1000.0;
+    const WindowResult result = SolvePerturbedPair(options);
+    ASSERT_TRUE(result.optimized) << result.message;
+    EXPECT_FALSE(result.converged);
+    EXPECT_EQ(result.time_limited, tiny_limit) << result.num_iterations << " iterations";
+    if (tiny_limit) {
+      EXPECT_LT(result.num_iterations, 1000);
     }
   }
 }
