@@ -208,7 +208,7 @@ Keyframes KittiKeyframes(const Args& args) {
   options.depth_dir = args.depth_dir;
   io::Sequence sequence = io::OpenSequence(options);
   const auto [width, height] = io::ProcessingSize(sequence.native_camera(), args.width, 8);
-  sequence = sequence.WithOutputSize(width, height).WithDepthFolder(args.depth_dir);
+  sequence = sequence.WithOutputSize(width, height);  // OpenSequence took the depth folder
   Keyframes out;
   for (size_t i = 0; i < sequence.size(); ++i) {
     io::LoadedFrame loaded = sequence.Load(i);
