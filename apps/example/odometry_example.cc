@@ -1,25 +1,27 @@
 // Using dfo from your own program: read images with OpenCV, feed them to dfo::Odometry one at a
-// time, print each frame's pose. Built by CMake as dfo_example and run by a test
-// (tests/apps/example_test.cc), so it keeps working as the library changes.
+// time, print each frame's pose. Built by CMake as dfo_example in dfo's own build, and against the
+// installed package by its own CMakeLists.txt (find_package(dfo)); tests/apps/example_test.cc runs
+// both, so it keeps working as the library changes. It uses the library alone.
 //
 //   dfo_example IMAGE_DIR FX FY CX CY [MODEL]
 //
 // IMAGE_DIR holds the frames as .png/.jpg files (sorted by name); FX FY CX CY are the pinhole
-// intrinsics of those images in pixels; MODEL is a dfo model file (default models/default.dfo),
-// whose depth network gives each frame's depth. Frames are resized to the model's input size.
-// Prints one line per frame: index status tx ty tz qx qy qz qw (camera-to-world, windowed).
+// intrinsics of those images in pixels; MODEL is a dfo model file (default: the model installed
+// with dfo, dfo::DefaultModelPath()), whose depth network gives each frame's depth. Frames are
+// resized to the model's input size. Prints one line per frame: index status tx ty tz qx qy qz qw
+// (camera-to-world, windowed).
 #include <algorithm>
+#include <cmath>
 #include <cstdio>
+#include <cstdlib>
 #include <exception>
 #include <filesystem>
-#include <limits>
 #include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
+#include <stdexcept>
 #include <string>
 #include <vector>
 
-#include "apps/common/args.h"
-#include "apps/common/cli.h"
 #include "dfo_backend/odometry.h"
 #include "dfo_frontend/learned/learned_sources.h"
 
@@ -28,32 +30,53 @@ namespace {
 struct Args {
   std::string image_dir;
   double fx = 0, fy = 0, cx = 0, cy = 0;
-  std::string model = "models/default.dfo";
+  std::string model = dfo::DefaultModelPath();  // the model installed with dfo
   bool help = false;
 };
 
-// The command line, with dfo's parser (apps/common/args.h): every number in full ("247.9x" and
-// "abc" are refused, naming the argument), focal lengths > 0; exit status 2 for a mistake.
+// A mistake on the command line (exit status 2).
+struct UsageError : std::runtime_error {
+  using std::runtime_error::runtime_error;
+};
+
+// `text` as a number, in full ("247.9x" and "abc" are refused, naming the argument).
+double ParseNumber(const std::string& name, const std::string& text) {
+  size_t used = 0;
+  double value = 0.0;
+  try {
+    value = std::stod(text, &used);
+  } catch (const std::exception&) {
+    used = 0;
+  }
+  if (text.empty() || used != text.size() || !std::isfinite(value)) {
+    throw UsageError(name + ": '" + text + "' is not a (finite) number");
+  }
+  return value;
+}
+
+// IMAGE_DIR FX FY CX CY [MODEL]; focal lengths > 0.
 Args ParseArgs(int argc, char** argv) {
   Args args;
-  std::string fx, fy, cx, cy;
-  dfo::apps::ArgParser parser;
-  parser.Flag("--help", &args.help, "-h")
-      .Positional("IMAGE_DIR", &args.image_dir)
-      .Positional("FX", &fx)
-      .Positional("FY", &fy)
-      .Positional("CX", &cx)
-      .Positional("CY", &cy)
-      .Positional("MODEL", &args.model, /*required=*/false);
-  parser.Parse(argc, argv);
-  if (args.help) return args;
-  const double inf = std::numeric_limits<double>::infinity();
-  args.fx = dfo::apps::ParseNumberArgument("FX", fx, -inf, inf);
-  args.fy = dfo::apps::ParseNumberArgument("FY", fy, -inf, inf);
-  args.cx = dfo::apps::ParseNumberArgument("CX", cx, -inf, inf);
-  args.cy = dfo::apps::ParseNumberArgument("CY", cy, -inf, inf);
-  if (!(args.fx > 0.0)) throw dfo::apps::UsageError("FX: " + fx + " is not a focal length (> 0)");
-  if (!(args.fy > 0.0)) throw dfo::apps::UsageError("FY: " + fy + " is not a focal length (> 0)");
+  const char* names[] = {"IMAGE_DIR", "FX", "FY", "CX", "CY", "MODEL"};
+  std::vector<std::string> words;
+  for (int i = 1; i < argc; ++i) {
+    const std::string word = argv[i];
+    if (word == "--help" || word == "-h") {
+      args.help = true;
+      return args;
+    }
+    if (words.size() == 6) throw UsageError("unexpected argument '" + word + "' after MODEL");
+    words.push_back(word);
+  }
+  if (words.size() < 5) throw UsageError(std::string(names[words.size()]) + " is missing");
+  args.image_dir = words[0];
+  args.fx = ParseNumber("FX", words[1]);
+  args.fy = ParseNumber("FY", words[2]);
+  args.cx = ParseNumber("CX", words[3]);
+  args.cy = ParseNumber("CY", words[4]);
+  if (words.size() == 6) args.model = words[5];
+  if (!(args.fx > 0.0)) throw UsageError("FX: " + words[1] + " is not a focal length (> 0)");
+  if (!(args.fy > 0.0)) throw UsageError("FY: " + words[2] + " is not a focal length (> 0)");
   return args;
 }
 
@@ -113,12 +136,18 @@ int Run(const Args& args) {
 }  // namespace
 
 int main(int argc, char** argv) {
-  return dfo::apps::RunMain("dfo_example", [&] {
+  try {
     const Args args = ParseArgs(argc, argv);
     if (args.help) {
       std::printf("usage: dfo_example IMAGE_DIR FX FY CX CY [MODEL]\n");
       return 0;
     }
     return Run(args);
-  });
+  } catch (const UsageError& e) {
+    std::fprintf(stderr, "dfo_example: error: %s (see dfo_example --help)\n", e.what());
+    return 2;
+  } catch (const std::exception& e) {  // dfo::InputError and the rest: the message names the file
+    std::fprintf(stderr, "dfo_example: error: %s\n", e.what());
+    return 1;
+  }
 }

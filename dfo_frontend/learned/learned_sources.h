@@ -44,6 +44,13 @@
 
 namespace dfo {
 
+// The default model file (default.dfo, trained on synthetic streets), found without a path
+// relative to the working directory: $DFO_MODEL_DIR/default.dfo when the environment variable
+// DFO_MODEL_DIR is set; otherwise the source tree's models/default.dfo when that file exists (a
+// program of dfo's own build); otherwise the copy installed with the package
+// (<prefix>/share/dfo/models/default.dfo). The file is not opened here.
+std::string DefaultModelPath();
+
 // Options of the learned sources (YAML section "learned").
 struct LearnedModelOptions {
   // Path of the model file (dfo model or TorchScript following the contract above). Required.

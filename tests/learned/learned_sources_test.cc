@@ -359,6 +359,21 @@ TEST(LearnedSourcesTest, MissingModelFile) {
 
 // Wall time of both networks at 416 x 128 with the default widths, printed (never asserted:
 // STYLE.md). Uses 2 threads as the budget (40 ms per frame).
+// The default model without a path relative to the working directory: DFO_MODEL_DIR first, then
+// the source tree's models/ (this build's), and the file found there loads.
+TEST(LearnedSourcesTest, DefaultModelPathTakesTheEnvironmentThenTheSourceTree) {
+  const char* saved = std::getenv("DFO_MODEL_DIR");
+  const std::string previous = saved ? saved : "";
+  setenv("DFO_MODEL_DIR", "/opt/elsewhere/models", 1);
+  EXPECT_EQ(DefaultModelPath(), "/opt/elsewhere/models/default.dfo");
+  unsetenv("DFO_MODEL_DIR");
+  EXPECT_EQ(DefaultModelPath(), test::SourceDir() + "/models/default.dfo");
+  LearnedModelOptions options;
+  options.model_path = DefaultModelPath();
+  EXPECT_NO_THROW(LoadLearnedModel(options));
+  if (saved) setenv("DFO_MODEL_DIR", previous.c_str(), 1);
+}
+
 TEST(LearnedSourcesTest, PrintsNetworkTimeAtDefaultSize) {
   const std::string path = test::MakeTempDir("sources_timing") + "/default.pt";
   WriteUntrainedModel(path);
