@@ -267,6 +267,20 @@ class Trainer {
  private:
   StepRecord AeStep(const Batch& batch);
   StepRecord JointStep(const Batch& batch, int iteration);
+  // The joint step's poses source_from_target (rotation[s] N x 3 x 3, translation[s] N x 3; s = 0
+  // previous, 1 next): the differentiable alignment of each sample's target features (z-scored
+  // target_z, or the hand-made ones during gn_handmade_iterations; masks with gn.use_masks; the
+  // normalised depth) to each source's, or the ground truth with gn.pose_source ground_truth.
+  // pose_ok[s][b] becomes 0 where the alignment failed (identity pose, no gradient); the record
+  // gets the success ratio and, with ground truth at hand, the pose errors.
+  void AlignSnippets(const Batch& batch, int iteration, const std::vector<torch::Tensor>& depth,
+                     const std::vector<torch::Tensor>& masks,
+                     const std::vector<torch::Tensor>& target_z,
+                     const std::vector<torch::Tensor> source_z[2], torch::Tensor rotation[2],
+                     torch::Tensor translation[2], torch::Tensor pose_ok[2], StepRecord* rec) const;
+  // Each run's depth-target scale (teacher_log_scales()) moves toward the median of its samples'
+  // offsets in this batch (weight 0.1; the first batch sets it).
+  void UpdateTeacherScales(const Batch& batch, const std::vector<double>& offsets);
 
   TrainingOptions options_;
   torch::Device device_ = torch::kCPU;  // options_.device
