@@ -5,6 +5,7 @@
 #include <filesystem>
 #include <fstream>
 #include <string>
+#include <vector>
 
 #include "dfo_core/error.h"
 #include "dfo_io/config_schema.h"
@@ -329,7 +330,12 @@ TEST(DfoConfig, LearnedDeviceIsCpuCudaOrCudaN) {
 
 TEST(DfoConfig, EveryShippedYamlParses) {
   int count = 0;
-  for (const auto& entry : fs::directory_iterator(test::SourceDir() + "/configs")) {
+  std::vector<fs::directory_entry> files;
+  for (const char* dir : {"/configs", "/experiments"}) {
+    for (const auto& entry : fs::directory_iterator(test::SourceDir() + dir))
+      files.push_back(entry);
+  }
+  for (const auto& entry : files) {
     if (entry.path().extension() != ".yaml") continue;
     ++count;
     SCOPED_TRACE(entry.path().string());
@@ -338,7 +344,8 @@ TEST(DfoConfig, EveryShippedYamlParses) {
       EXPECT_NO_THROW(LoadConfig(entry.path().string(), TrainSchema()));
       continue;
     }
-    // sweep_*.yaml are dfo_sweep files; their overrides are checked against dfo_run's schema.
+    // experiments/sweep_*.yaml are dfo_sweep files; their overrides are checked against dfo_run's
+    // schema.
     if (entry.path().filename().string().rfind("sweep_", 0) == 0) {
       EXPECT_NO_THROW(ExpandSweep(LoadSweepSpec(entry.path().string())));
       continue;
