@@ -331,13 +331,6 @@ int Run(const Args& args) {
           result.converged ? " converged" : "", result.num_points, result.num_residual_blocks,
           result.num_gated_blocks, last_trans_err, last_rot_err, last_scale, last_scaled_err,
           result.message.c_str());
-      if (std::getenv("DFO_BENCH_PER_KEYFRAME")) {
-        for (const auto& [index, pose] : poses) {
-          const SE3d err = true_pose(index).Inverse() * pose;
-          std::printf("    %d: %.3f m %.3f deg\n", index, err.translation().norm(),
-                      err.so3().Angle() * 180 / M_PI);
-        }
-      }
     }
   }
   Trajectory estimate, truth;
