@@ -224,7 +224,7 @@ void TrackerBenchmark(const Args& args) {
   std::printf("  machine    %s\n", other_load.Describe().c_str());
   // Accuracy as a sanity check of what was timed.
   try {
-    const apps::TrajectoryEvaluation e = apps::EvaluateTrajectory(sequence.GroundTruth(), estimate);
+    const dfo::TrajectoryEvaluation e = dfo::EvaluateTrajectory(sequence.GroundTruth(), estimate);
     std::printf("  accuracy   Sim3 ATE rmse %.4f m = %.3f %% of the %.1f m path, %d lost\n",
                 e.ate.stats.rmse, 100.0 * e.ate.stats.rmse / e.gt_path_length_m, e.gt_path_length_m,
                 lost);

@@ -210,7 +210,7 @@ bool WantsHelp(int argc, char** argv) {
   return false;
 }
 
-std::string Fixed(double v, int decimals = 6) { return apps::FormatFixed(v, decimals); }
+std::string Fixed(double v, int decimals = 6) { return dfo::FormatFixed(v, decimals); }
 
 int RunTraj(int argc, char** argv) {
   if (WantsHelp(argc, argv)) {
@@ -288,12 +288,12 @@ int RunTraj(int argc, char** argv) {
               std::to_string(std::min(gt_raw.size(), est_raw.size())) + " possible";
   }
 
-  apps::TrajectoryEvaluationOptions eval_options;
+  dfo::TrajectoryEvaluationOptions eval_options;
   eval_options.alignment = align_options.type;
   eval_options.rpe = rpe_options;
-  apps::TrajectoryEvaluation evaluation;
+  dfo::TrajectoryEvaluation evaluation;
   try {
-    evaluation = apps::EvaluateTrajectory(gt, est, eval_options);
+    evaluation = dfo::EvaluateTrajectory(gt, est, eval_options);
   } catch (const ConfigError&) {
     throw;
   } catch (const InputError& e) {
@@ -319,7 +319,7 @@ int RunTraj(int argc, char** argv) {
     io::WriteTrajectoryPlot(opt.Get("--plot", ""), gt, aligned, ate.errors, plot);
   }
 
-  for (const std::string& w : apps::EvaluationWarnings(evaluation)) {
+  for (const std::string& w : dfo::EvaluationWarnings(evaluation)) {
     std::cerr << "dfo_eval traj: warning: " << w << "\n";
   }
   if (json) {
@@ -332,7 +332,7 @@ int RunTraj(int argc, char** argv) {
             << "poses:        " << gt.size() << " (" << io::TrajectoryFormatName(format) << ", "
             << pairing << ")\n"
             << "alignment:    " << align_name << " (Umeyama), scale "
-            << apps::FormatScale(alignment.transform.scale) << "\n"
+            << dfo::FormatScale(alignment.transform.scale) << "\n"
             << "ATE [m]       rmse " << Fixed(ate.stats.rmse) << "  mean " << Fixed(ate.stats.mean)
             << "  median " << Fixed(ate.stats.median) << "  std " << Fixed(ate.stats.std)
             << "  min " << Fixed(ate.stats.min) << "  max " << Fixed(ate.stats.max) << "\n";

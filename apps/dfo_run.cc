@@ -147,7 +147,7 @@ void PrintComparison(const apps::SequenceRunResult& result, const apps::RunOutpu
               << " tracked frames against the window's depths";
     if (!t["median_covered_fraction"].IsNull()) {
       std::cout << " (a window point under "
-                << apps::FormatFixed(100.0 * t["median_covered_fraction"].AsNumber(), 0)
+                << dfo::FormatFixed(100.0 * t["median_covered_fraction"].AsNumber(), 0)
                 << " % of the tracker's points, median)";
     }
     std::cout << "; the rest against the depth source's (tracker.depth = window)\n";
@@ -166,7 +166,7 @@ void PrintComparison(const apps::SequenceRunResult& result, const apps::RunOutpu
       const std::string key = std::string(c.name) == "windowed" ? "windowed" : "frontend";
       std::cout << "evaluation:  " << c.name << ": none (" << c.evaluation->note
                 << "); path length "
-                << apps::FormatFixed(lengths.Has(key) ? lengths[key].AsNumber() : 0.0, 2)
+                << dfo::FormatFixed(lengths.Has(key) ? lengths[key].AsNumber() : 0.0, 2)
                 << " in the estimate's scale\n";
     }
   }
@@ -178,7 +178,7 @@ void PrintComparison(const apps::SequenceRunResult& result, const apps::RunOutpu
     std::printf("  %-28s", label);
     for (const Column& c : columns) {
       // Exponent form outside 1e-3..1e6 (a Sim3 scale of 1e-5 is not 0.0000).
-      std::printf(" %14s", apps::FormatScale(value(*c.evaluation), decimals).c_str());
+      std::printf(" %14s", dfo::FormatScale(value(*c.evaluation), decimals).c_str());
     }
     std::printf("\n");
   };
@@ -240,12 +240,12 @@ void PrintLcmLine(const apps::LcmRunStreamer& streamer, const std::vector<double
   const io::LcmPublisherStats& stats = streamer.stats();
   const double median_ms = apps::Percentile(streamer.publish_ms(), 50);
   const double frame_ms = apps::Percentile(total_ms, 50);
-  const auto us = [](double ms) { return apps::FormatFixed(1000.0 * ms, 1); };
+  const auto us = [](double ms) { return dfo::FormatFixed(1000.0 * ms, 1); };
   std::cout << "lcm:         " << stats.messages << " messages (" << stats.bytes / 1024
             << " KiB) to " << streamer.Describe() << "\n             publishing per frame: "
             << "median " << us(median_ms) << " us, p95 "
             << us(apps::Percentile(streamer.publish_ms(), 95)) << " us wall ("
-            << apps::FormatFixed(100.0 * median_ms / frame_ms, 2)
+            << dfo::FormatFixed(100.0 * median_ms / frame_ms, 2)
             << " % of the median frame time); CPU median "
             << us(apps::Percentile(streamer.publish_cpu_ms(), 50)) << " us, p95 "
             << us(apps::Percentile(streamer.publish_cpu_ms(), 95)) << " us\n";
@@ -501,14 +501,14 @@ int Run(const Args& args) {
     if (k.ba_ran) backend_ms.push_back(k.backend_ms);
   }
   const double fps = result.wall_s > 0 ? result.frames.size() / result.wall_s : 0.0;
-  std::cout << "speed:       " << apps::FormatFixed(fps, 1) << " frames/s; per frame median "
-            << apps::FormatFixed(apps::Percentile(total_ms, 50), 2) << " ms (tracking "
-            << apps::FormatFixed(apps::Percentile(tracking_ms, 50), 2) << " ms, p95 "
-            << apps::FormatFixed(apps::Percentile(tracking_ms, 95), 2) << " ms)";
+  std::cout << "speed:       " << dfo::FormatFixed(fps, 1) << " frames/s; per frame median "
+            << dfo::FormatFixed(apps::Percentile(total_ms, 50), 2) << " ms (tracking "
+            << dfo::FormatFixed(apps::Percentile(tracking_ms, 50), 2) << " ms, p95 "
+            << dfo::FormatFixed(apps::Percentile(tracking_ms, 95), 2) << " ms)";
   if (!backend_ms.empty()) {
     std::cout << "; window per keyframe median "
-              << apps::FormatFixed(apps::Percentile(backend_ms, 50), 1) << " ms, p95 "
-              << apps::FormatFixed(apps::Percentile(backend_ms, 95), 1) << " ms";
+              << dfo::FormatFixed(apps::Percentile(backend_ms, 50), 1) << " ms, p95 "
+              << dfo::FormatFixed(apps::Percentile(backend_ms, 95), 1) << " ms";
   }
   std::cout << "\n";
   if (streamer) PrintLcmLine(*streamer, total_ms);
@@ -522,7 +522,7 @@ int Run(const Args& args) {
   for (const std::string& what : live.problems()) std::cerr << "dfo_run: warning: " << what << "\n";
   const auto evaluation_warnings = [](const apps::RunEvaluation& e, const char* which) {
     if (!e.available) return;
-    for (const std::string& w : apps::EvaluationWarnings(e.sim3)) {
+    for (const std::string& w : dfo::EvaluationWarnings(e.sim3)) {
       std::cerr << "dfo_run: warning: " << which << " trajectory: " << w << "\n";
     }
   };
