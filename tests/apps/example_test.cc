@@ -13,9 +13,9 @@
 #include <string>
 #include <vector>
 
-#include "apps/common/evaluation.h"
 #include "dfo_core/synthetic/synthetic_sequence.h"
 #include "dfo_core/trajectory.h"
+#include "dfo_core/trajectory_evaluation.h"
 #include "dfo_io/synth_writer.h"
 #include "tests/support/test_support.h"
 
@@ -67,9 +67,9 @@ void ExpectPosesAlongTheTruePath(const std::string& command, const std::string& 
   }
   ASSERT_EQ(estimate.size(), static_cast<size_t>(synth.num_frames)) << r.out << r.err;
   EXPECT_EQ(lost, 0) << r.out;
-  dfo::TrajectoryEvaluationOptions sim3;
+  TrajectoryEvaluationOptions sim3;
   sim3.alignment = AlignmentType::kSim3;
-  const dfo::TrajectoryEvaluation e = dfo::EvaluateTrajectory(truth, estimate, sim3);
+  const TrajectoryEvaluation e = EvaluateTrajectory(truth, estimate, sim3);
   // The example runs the library with its defaults; its path must follow the true one (a
   // standing still or reversed estimate leaves an ATE near the path's own spread).
   EXPECT_LT(e.ate.stats.rmse, 0.1 * e.gt_path_length_m)
