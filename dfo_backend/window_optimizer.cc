@@ -348,6 +348,9 @@ struct WindowOptimizer::PointState {
   double inverse_depth = 0.0;
   double prior_inverse_depth = 0.0;  // from the keyframe's depth
   double start_inverse_depth = 0.0;  // where it entered the window
+  // A candidate's (WindowOptions::depth_search_range) inverse-depth interval still possible:
+  // rho0 / range .. rho0 * range at first, narrowed by each search that found it ambiguous.
+  double search_lo = 0.0, search_hi = 0.0;
   std::shared_ptr<const std::vector<double>> patch;
   // FeatureMetricCost's depth shape (WindowOptions::patch_depth_shape); null: fronto-parallel.
   std::shared_ptr<const std::vector<double>> depth_shape;
@@ -536,6 +539,9 @@ double WindowOptimizer::SelectPoints(KeyframeState* kf) {
     p->inverse_depth =
         std::max(1.0 / (kf->depth(c.x, c.y) * kf->initial_depth_scale), options_.min_inverse_depth);
     p->start_inverse_depth = p->inverse_depth;
+    p->search_lo =
+        std::max(p->inverse_depth / options_.depth_search_range, options_.min_inverse_depth);
+    p->search_hi = p->inverse_depth * options_.depth_search_range;
     p->patch = std::make_shared<const std::vector<double>>(
         SampleHostPatch(f, c.x, c.y, options_.patch_size));
     if (options_.patch_depth_shape) {
@@ -549,132 +555,168 @@ double WindowOptimizer::SelectPoints(KeyframeState* kf) {
         p->coarse_patch = std::make_shared<const std::vector<double>>(std::move(coarse_patch));
       }
     }
-    points_.push_back(std::move(p));
+    (options_.depth_search_range > 1.0 ? candidates_ : points_).push_back(std::move(p));
   }
   kf->num_selected = static_cast<int>(chosen.size());
   return num_with_depth > 0 ? static_cast<double>(num_on_edge) / num_with_depth : 0.0;
 }
 
-// Blocks for every (point, target) pair that involves the new keyframe and is visible.
-void WindowOptimizer::ConnectNewKeyframe(KeyframeState* new_kf) {
+// A block from point p into `target` when its patch is visible there, at p's current inverse
+// depth, at a similar scale (max_patch_stretch).
+void WindowOptimizer::ConnectPoint(PointState* p, KeyframeState* target) {
   const int full = options_.patch_size * options_.patch_size;
   const double max_stretch = options_.max_patch_stretch;
+  KeyframeState* host = FindKeyframe(p->host_id);
+  const Eigen::Vector2d uv(p->x, p->y);
+  auto cost = std::make_unique<FeatureMetricCost>(&target->level, host->level.camera, uv,
+                                                  options_.patch_size, p->patch, p->depth_shape);
+  const Eigen::Vector2d stretch = cost->WarpStretch(host->pose, target->pose, p->inverse_depth);
+  if (!(stretch(0) <= max_stretch && stretch(1) >= 1.0 / max_stretch)) return;
+  // How much larger the target sees the patch than the host.
+  const double zoom = std::sqrt(stretch(0) * stretch(1));
+  const FeatureLevel* target_level = &target->level;
+  std::shared_ptr<const std::vector<double>> patch = p->patch;
+  if (!zoom_ladder_.empty()) {
+    // The same surface blur on both sides: the zoomed-in side's features blurred more.
+    const int t = ZoomIndex(zoom_ladder_, zoom), h = ZoomIndex(zoom_ladder_, 1.0 / zoom);
+    if (t >= 0) target_level = &target->zoom_blurred[t];
+    if (h >= 0) {
+      patch = std::make_shared<const std::vector<double>>(
+          SampleHostPatch(host->zoom_blurred[h], p->x, p->y, options_.patch_size));
+    }
+  }
+  if (options_.zoom_scaled_gradients) {
+    // The same gradient steepness on the surface: the target sees gradients 1 / zoom as steep.
+    if (auto scaled =
+            ZoomScaledPatch(*patch, host->level.derivative_order, options_.patch_size, zoom)) {
+      patch = std::move(scaled);
+    }
+  }
+  if (target_level != &target->level || patch != p->patch) {
+    cost = std::make_unique<FeatureMetricCost>(target_level, host->level.camera, uv,
+                                               options_.patch_size, patch, p->depth_shape);
+  }
+  if (cost->NumVisible(host->pose, target->pose, p->inverse_depth) == full) {
+    Block& block = p->residuals[target->id];
+    if (cost->num_residuals() > CompressedFeatureMetricCost::kNumResiduals) {
+      block.compressed = std::make_unique<CompressedFeatureMetricCost>(cost.get());
+    }
+    block.cost = std::move(cost);
+  }
+}
+
+// Blocks for every (point, target) pair that involves the new keyframe and is visible.
+void WindowOptimizer::ConnectNewKeyframe(KeyframeState* new_kf) {
   for (auto& p : points_) {
-    KeyframeState* host = FindKeyframe(p->host_id);
-    const Eigen::Vector2d uv(p->x, p->y);
-    auto try_add = [&](KeyframeState* target) {
-      auto cost = std::make_unique<FeatureMetricCost>(
-          &target->level, host->level.camera, uv, options_.patch_size, p->patch, p->depth_shape);
-      const Eigen::Vector2d stretch = cost->WarpStretch(host->pose, target->pose, p->inverse_depth);
-      if (!(stretch(0) <= max_stretch && stretch(1) >= 1.0 / max_stretch)) return;
-      // How much larger the target sees the patch than the host.
-      const double zoom = std::sqrt(stretch(0) * stretch(1));
-      const FeatureLevel* target_level = &target->level;
-      std::shared_ptr<const std::vector<double>> patch = p->patch;
-      if (!zoom_ladder_.empty()) {
-        // The same surface blur on both sides: the zoomed-in side's features blurred more.
-        const int t = ZoomIndex(zoom_ladder_, zoom), h = ZoomIndex(zoom_ladder_, 1.0 / zoom);
-        if (t >= 0) target_level = &target->zoom_blurred[t];
-        if (h >= 0) {
-          patch = std::make_shared<const std::vector<double>>(
-              SampleHostPatch(host->zoom_blurred[h], p->x, p->y, options_.patch_size));
-        }
-      }
-      if (options_.zoom_scaled_gradients) {
-        // The same gradient steepness on the surface: the target sees gradients 1 / zoom as steep.
-        if (auto scaled =
-                ZoomScaledPatch(*patch, host->level.derivative_order, options_.patch_size, zoom)) {
-          patch = std::move(scaled);
-        }
-      }
-      if (target_level != &target->level || patch != p->patch) {
-        cost = std::make_unique<FeatureMetricCost>(target_level, host->level.camera, uv,
-                                                   options_.patch_size, patch, p->depth_shape);
-      }
-      if (cost->NumVisible(host->pose, target->pose, p->inverse_depth) == full) {
-        Block& block = p->residuals[target->id];
-        if (cost->num_residuals() > CompressedFeatureMetricCost::kNumResiduals) {
-          block.compressed = std::make_unique<CompressedFeatureMetricCost>(cost.get());
-        }
-        block.cost = std::move(cost);
-      }
-    };
     if (p->host_id == new_kf->id) {
       for (auto& target : keyframes_) {
-        if (target->id != new_kf->id) try_add(target.get());
+        if (target->id != new_kf->id) ConnectPoint(p.get(), target.get());
       }
     } else {
-      try_add(new_kf);
+      ConnectPoint(p.get(), new_kf);
     }
   }
   RemovePointsWithoutResiduals();
 }
 
-void WindowOptimizer::SearchNewPointDepths(const KeyframeState* new_kf, WindowResult* result) {
-  const double range = options_.depth_search_range;
+void WindowOptimizer::ActivateCandidates(WindowResult* result) {
+  std::vector<std::unique_ptr<PointState>> waiting;
+  for (auto& c : candidates_) {
+    // Blocks into every other keyframe at the candidate's starting depth; the search then moves
+    // along the epipolar lines of those targets.
+    c->residuals.clear();
+    c->inverse_depth = 0.5 * (c->search_lo + c->search_hi);
+    for (auto& target : keyframes_) {
+      if (target->id != c->host_id) ConnectPoint(c.get(), target.get());
+    }
+    if (!c->residuals.empty() && SearchPointDepth(c.get(), result)) {
+      c->start_inverse_depth = c->inverse_depth;
+      points_.push_back(std::move(c));
+      ++result->num_points_activated;
+    } else {
+      c->residuals.clear();
+      waiting.push_back(std::move(c));
+    }
+  }
+  candidates_ = std::move(waiting);
+}
+
+bool WindowOptimizer::SearchPointDepth(PointState* p, WindowResult* result) {
   constexpr int kMaxSteps = 200;
+  const KeyframeState* host = FindKeyframe(p->host_id);
   std::vector<double> residuals;
-  for (auto& p : points_) {
-    if (p->host_id != new_kf->id || p->residuals.empty()) continue;
-    const double rho0 = p->inverse_depth;
-    const double lo = std::max(rho0 / range, options_.min_inverse_depth), hi = rho0 * range;
-    if (!(hi > lo)) continue;
-    // Length in pixels of the epipolar segment [lo, hi] in the target where it is longest.
-    const Eigen::Vector3d ray = new_kf->level.camera.Unproject(Eigen::Vector2d(p->x, p->y), 1.0);
-    const SE3d world_from_host = PoseFromParameters(new_kf->pose);
-    double length = 0.0;
+  const double lo = p->search_lo, hi = p->search_hi;
+  if (!(hi > lo)) return false;
+  // Length in pixels of the epipolar segment [lo, hi] in the target where it is longest.
+  const Eigen::Vector3d ray = host->level.camera.Unproject(Eigen::Vector2d(p->x, p->y), 1.0);
+  const SE3d world_from_host = PoseFromParameters(host->pose);
+  double length = 0.0;
+  for (const auto& [target_id, block] : p->residuals) {
+    const KeyframeState* target = FindKeyframe(target_id);
+    const SE3d target_from_host = PoseFromParameters(target->pose).Inverse() * world_from_host;
+    const Eigen::Vector3d a = target_from_host * Eigen::Vector3d(ray / lo);
+    const Eigen::Vector3d b = target_from_host * Eigen::Vector3d(ray / hi);
+    if (!(a.z() > 0.0) || !(b.z() > 0.0)) continue;
+    length = std::max(length,
+                      (target->level.camera.Project(a) - target->level.camera.Project(b)).norm());
+  }
+  if (!(length >= 2.0)) return false;  // too little parallax to tell depths apart
+  ++result->num_depth_searched;
+  const int steps = std::min(kMaxSteps, static_cast<int>(std::ceil(length)) + 1);
+  std::vector<double> energy(steps, 0.0);
+  bool finite = true;
+  for (int i = 0; i < steps && finite; ++i) {
+    const double rho = lo + (hi - lo) * i / (steps - 1);
     for (const auto& [target_id, block] : p->residuals) {
-      const KeyframeState* target = FindKeyframe(target_id);
-      const SE3d target_from_host = PoseFromParameters(target->pose).Inverse() * world_from_host;
-      const Eigen::Vector3d a = target_from_host * Eigen::Vector3d(ray / lo);
-      const Eigen::Vector3d b = target_from_host * Eigen::Vector3d(ray / hi);
-      if (!(a.z() > 0.0) || !(b.z() > 0.0)) continue;
-      length = std::max(length,
-                        (target->level.camera.Project(a) - target->level.camera.Project(b)).norm());
-    }
-    if (!(length >= 2.0)) continue;  // too little parallax to tell depths apart
-    ++result->num_depth_searched;
-    const int steps = std::min(kMaxSteps, static_cast<int>(std::ceil(length)) + 1);
-    std::vector<double> energy(steps, 0.0);
-    bool finite = true;
-    for (int i = 0; i < steps && finite; ++i) {
-      const double rho = lo + (hi - lo) * i / (steps - 1);
-      for (const auto& [target_id, block] : p->residuals) {
-        const FeatureMetricCost& cost = *block.cost;
-        residuals.resize(cost.num_residuals());
-        if (!cost.EvaluateTangent(new_kf->pose, FindKeyframe(target_id)->pose, rho,
-                                  residuals.data(), nullptr, nullptr, nullptr)) {
-          finite = false;
-          break;
-        }
-        double squared = 0.0;
-        for (double r : residuals) squared += r * r;
-        double robust[3];
-        loss_->Evaluate(squared, robust);
-        energy[i] += robust[0];
+      const FeatureMetricCost& cost = *block.cost;
+      residuals.resize(cost.num_residuals());
+      if (!cost.EvaluateTangent(host->pose, FindKeyframe(target_id)->pose, rho, residuals.data(),
+                                nullptr, nullptr, nullptr)) {
+        finite = false;
+        break;
       }
+      double squared = 0.0;
+      for (double r : residuals) squared += r * r;
+      double robust[3];
+      loss_->Evaluate(squared, robust);
+      energy[i] += robust[0];
     }
-    if (!finite) continue;
-    const int best =
-        static_cast<int>(std::min_element(energy.begin(), energy.end()) - energy.begin());
-    double second = std::numeric_limits<double>::infinity();
+  }
+  if (!finite) return false;
+  const int best =
+      static_cast<int>(std::min_element(energy.begin(), energy.end()) - energy.begin());
+  double second = std::numeric_limits<double>::infinity();
+  for (int i = 0; i < steps; ++i) {
+    if (std::abs(i - best) <= 2) continue;
+    const bool local_min =
+        (i == 0 || energy[i] <= energy[i - 1]) && (i == steps - 1 || energy[i] <= energy[i + 1]);
+    if (local_min) second = std::min(second, energy[i]);
+  }
+  if (!(second >= options_.depth_search_uniqueness * energy[best])) {
+    // Ambiguous: the interval shrinks to the span of the local minima that compete with the best
+    // (one step of margin), so that a later keyframe, with another baseline, decides among them.
+    int first = best, last = best;
     for (int i = 0; i < steps; ++i) {
-      if (std::abs(i - best) <= 2) continue;
       const bool local_min =
           (i == 0 || energy[i] <= energy[i - 1]) && (i == steps - 1 || energy[i] <= energy[i + 1]);
-      if (local_min) second = std::min(second, energy[i]);
+      if (local_min && energy[i] < options_.depth_search_uniqueness * energy[best]) {
+        first = std::min(first, i);
+        last = std::max(last, i);
+      }
     }
-    if (!(second >= options_.depth_search_uniqueness * energy[best])) continue;
-    // Sub-step minimum of the parabola through the best sample and its neighbours.
-    double offset = 0.0;
-    if (best > 0 && best < steps - 1) {
-      const double a = energy[best - 1], b = energy[best], c = energy[best + 1];
-      const double curvature = a - 2.0 * b + c;
-      if (curvature > 0.0) offset = std::clamp(0.5 * (a - c) / curvature, -0.5, 0.5);
-    }
-    p->inverse_depth = lo + (hi - lo) * (best + offset) / (steps - 1);
-    ++result->num_depth_moved;
+    p->search_lo = lo + (hi - lo) * std::max(0, first - 1) / (steps - 1);
+    p->search_hi = lo + (hi - lo) * std::min(steps - 1, last + 1) / (steps - 1);
+    return false;
   }
+  // Sub-step minimum of the parabola through the best sample and its neighbours.
+  double offset = 0.0;
+  if (best > 0 && best < steps - 1) {
+    const double a = energy[best - 1], b = energy[best], c = energy[best + 1];
+    const double curvature = a - 2.0 * b + c;
+    if (curvature > 0.0) offset = std::clamp(0.5 * (a - c) / curvature, -0.5, 0.5);
+  }
+  p->inverse_depth = lo + (hi - lo) * (best + offset) / (steps - 1);
+  return true;
 }
 
 void WindowOptimizer::RemovePointsWithoutResiduals() {
@@ -1070,7 +1112,8 @@ WindowResult WindowOptimizer::AddKeyframe(KeyframeData data) {
 
   WindowResult result;
   result.depth_edge_fraction = depth_edge_fraction;
-  if (options_.depth_search_range > 1.0) SearchNewPointDepths(new_kf, &result);
+  if (options_.depth_search_range > 1.0) ActivateCandidates(&result);
+  result.num_candidates = static_cast<int>(candidates_.size());
   const auto solve_start = std::chrono::steady_clock::now();
   if (keyframes_.size() < 2) {
     result.message = "nothing to optimise (one keyframe)";
@@ -1308,6 +1351,11 @@ void WindowOptimizer::MarginalizeKeyframe(int position, WindowResult* result) {
                                }),
                 points_.end());
   for (auto& p : points_) p->residuals.erase(leaving_id);
+  candidates_.erase(std::remove_if(candidates_.begin(), candidates_.end(),
+                                   [leaving_id](const std::unique_ptr<PointState>& p) {
+                                     return p->host_id == leaving_id;
+                                   }),
+                    candidates_.end());
   keyframes_.erase(keyframes_.begin() + position);
   RemovePointsWithoutResiduals();
 }

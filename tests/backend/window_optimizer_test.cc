@@ -868,7 +868,7 @@ TEST(WindowOptimizerTest, DepthSearchCorrectsAWrongSourceDepthByParallax) {
     err[search] = error(window, 9);
     if (search) {
       EXPECT_GT(r.num_depth_searched, 50);
-      moved = r.num_depth_moved;
+      moved = r.num_points_activated;
     } else {
       EXPECT_EQ(r.num_depth_searched, 0);
     }
@@ -879,6 +879,51 @@ TEST(WindowOptimizerTest, DepthSearchCorrectsAWrongSourceDepthByParallax) {
       err[0], err[1], moved);
   EXPECT_LT(err[1], 0.5 * err[0]);
   EXPECT_LT(err[1], 0.1);
+}
+
+// With the depth search on, selected points are candidates: none enters the window with the
+// source's depth (here 1.6x too far in every keyframe); each enters once parallax against
+// another keyframe has found its depth, and the candidates leave with their keyframe.
+TEST(WindowOptimizerTest, SearchedPointsEnterOnlyWithTheDepthParallaxFound) {
+  WindowOptions options = TestOptions();
+  options.max_iterations = 1;
+  options.depth_search_range = 2.0;
+  options.depth_search_uniqueness = 1.2;
+  WindowOptimizer window(options);
+  const auto too_far = [](int frame) {
+    KeyframeData kf = test::MakeSyntheticKeyframe(Sequence(), frame);
+    for (ImageF& level : kf.depth.levels) {
+      for (float& d : level.vector()) d *= 1.6f;
+    }
+    return kf;
+  };
+  const WindowResult first = window.AddKeyframe(too_far(0));
+  EXPECT_EQ(window.num_points(), 0);
+  EXPECT_GT(first.num_candidates, 100);
+  const WindowResult second = window.AddKeyframe(too_far(3));
+  ASSERT_TRUE(second.optimized) << second.message;
+  EXPECT_GT(second.num_points_activated, 100);
+  EXPECT_LE(window.num_points(), second.num_points_activated);  // the gate may leave some blockless
+  std::vector<double> errors;
+  for (const WindowOptimizer::PointInfo& p : window.Points()) {
+    const SyntheticFrame truth = Sequence().RenderFrame(p.host_frame);
+    if (truth.depth(p.x, p.y) > 0.0f) {
+      errors.push_back(std::abs(std::log(1.0 / (p.inverse_depth * truth.depth(p.x, p.y)))));
+    }
+  }
+  ASSERT_FALSE(errors.empty());
+  std::nth_element(errors.begin(), errors.begin() + errors.size() / 2, errors.end());
+  std::printf(
+      "[ figures  ] source depth 1.6x too far (|log| 0.470): %d of %d candidates entered after "
+      "the second keyframe, median |log depth error| %.3f\n",
+      second.num_points_activated, second.num_points_activated + second.num_candidates,
+      errors[errors.size() / 2]);
+  EXPECT_LT(errors[errors.size() / 2], 0.1);
+  // Candidates are bounded by the keyframes in the window.
+  for (int k = 2; k < 12; ++k) {
+    const WindowResult r = window.AddKeyframe(too_far(3 * k));
+    EXPECT_LE(r.num_candidates, window.num_keyframes() * options.points_per_keyframe);
+  }
 }
 
 TEST(WindowOptionsTest, CheckNamesTheKey) {
