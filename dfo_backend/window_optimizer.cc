@@ -300,6 +300,8 @@ void WindowOptions::Check() const {
       "window.depth_search_range", depth_search_range, "in [1, 10]");
   Require(std::isfinite(depth_search_uniqueness) && depth_search_uniqueness >= 1.0,
           "window.depth_search_uniqueness", depth_search_uniqueness, ">= 1");
+  Require(!searched_points_only || depth_search_range > 1.0, "window.searched_points_only",
+          std::string("true"), "false when window.depth_search_range is 1 (no search)");
   Require(prior_weight > 0.0 && prior_weight <= 1.0, "backend.prior_weight", prior_weight,
           "in (0, 1]");
   Require(relative_eigenvalue_floor > 0.0 && relative_eigenvalue_floor < 1.0,
@@ -555,7 +557,7 @@ double WindowOptimizer::SelectPoints(KeyframeState* kf) {
         p->coarse_patch = std::make_shared<const std::vector<double>>(std::move(coarse_patch));
       }
     }
-    (options_.depth_search_range > 1.0 ? candidates_ : points_).push_back(std::move(p));
+    (options_.searched_points_only ? candidates_ : points_).push_back(std::move(p));
   }
   kf->num_selected = static_cast<int>(chosen.size());
   return num_with_depth > 0 ? static_cast<double>(num_on_edge) / num_with_depth : 0.0;
@@ -632,13 +634,20 @@ void WindowOptimizer::ActivateCandidates(WindowResult* result) {
     if (!c->residuals.empty() && SearchPointDepth(c.get(), result)) {
       c->start_inverse_depth = c->inverse_depth;
       points_.push_back(std::move(c));
-      ++result->num_points_activated;
+      ++result->num_depth_found;
     } else {
       c->residuals.clear();
       waiting.push_back(std::move(c));
     }
   }
   candidates_ = std::move(waiting);
+}
+
+void WindowOptimizer::SearchNewPointDepths(const KeyframeState* new_kf, WindowResult* result) {
+  for (auto& p : points_) {
+    if (p->host_id != new_kf->id || p->residuals.empty()) continue;
+    if (SearchPointDepth(p.get(), result)) ++result->num_depth_found;
+  }
 }
 
 bool WindowOptimizer::SearchPointDepth(PointState* p, WindowResult* result) {
@@ -1112,7 +1121,11 @@ WindowResult WindowOptimizer::AddKeyframe(KeyframeData data) {
 
   WindowResult result;
   result.depth_edge_fraction = depth_edge_fraction;
-  if (options_.depth_search_range > 1.0) ActivateCandidates(&result);
+  if (options_.searched_points_only) {
+    ActivateCandidates(&result);
+  } else if (options_.depth_search_range > 1.0) {
+    SearchNewPointDepths(new_kf, &result);
+  }
   result.num_candidates = static_cast<int>(candidates_.size());
   const auto solve_start = std::chrono::steady_clock::now();
   if (keyframes_.size() < 2) {

@@ -15,7 +15,7 @@
 //     depth, and with max_depth_edge_slope pixels on a depth edge, are skipped); create a
 //     residual block (dfo_backend/feature_metric_cost.h) from every point to every other window
 //     keyframe in which its patch is visible at a similar scale (max_patch_stretch), old points
-//     included. With depth_search_range > 1 the selected points are candidates instead, and
+//     included. With searched_points_only the selected points are candidates instead, and
 //     every candidate in the window (this keyframe's and the earlier ones') enters only when a
 //     search along its epipolar lines in the other keyframes finds its depth (see the option).
 //  2. Solve with Ceres (each block as its 7-row CompressedFeatureMetricCost: the same cost,
@@ -33,8 +33,8 @@
 //     min_marginalized_observations blocks are marginalised into a prior on the kept poses, its
 //     other points are dropped, blocks of other points into it are dropped
 //     (dfo_backend/marginalization.h). marginalization = false only drops.
-// Memory is bounded: at most max_keyframes + 1 keyframes, points_per_keyframe points and
-// candidates each and one block per (point, other keyframe) exist at any time.
+// Memory is bounded: at most max_keyframes + 1 keyframes, points_per_keyframe points (or
+// candidates) each and one block per (point, other keyframe) exist at any time.
 #ifndef DFO_BACKEND_WINDOW_OPTIMIZER_H_
 #define DFO_BACKEND_WINDOW_OPTIMIZER_H_
 
@@ -181,26 +181,29 @@ struct WindowOptions {
   // Points of the leaving keyframe with at least this many residual blocks are marginalised, the
   // rest dropped; >= 1.
   int min_marginalized_observations = 2;
-  // Depth search and activation of new points (DSO's immature points, searched along their
-  // epipolar lines in the window's keyframes, whose poses are known). With depth_search_range > 1
-  // a keyframe's selected points are candidates, not yet in the problem: at every AddKeyframe
-  // (the keyframe's own and each later one while it stays in the window), each candidate tries
-  // inverse depths from rho0 / depth_search_range to rho0 * depth_search_range (rho0: from the
-  // keyframe's depth), one step per pixel of travel along its epipolar line in the target with
-  // the longest line, and the sum over its blocks into every other keyframe of the robustified
-  // feature-metric cost picks the best. The candidate becomes a point of the window, starting
-  // there, when that best is unique (the lowest cost at least depth_search_uniqueness times below
-  // every other local minimum more than 2 steps away) and the line is at least 2 px long; until
-  // then it waits (points near the epipole of a forward-moving camera, or in new parts of a turn,
-  // gain parallax from the keyframes after their host), and it leaves with its host. So the
-  // depth source only centres the search: no point enters with a depth that parallax has not
-  // confirmed, whose error would otherwise pull the poses (a network's depth, made at its input
-  // size and stretched to the processing size, is off by more than the solve's basin of a pixel
-  // or two). The search trusts the keyframes' current poses (a new keyframe's from tracking).
-  // depth_search_range: 1 = off (every selected point enters at once with the source's depth),
-  // else in (1, 10]; depth_search_uniqueness >= 1.
+  // Depth search of new points (DSO's epipolar search of immature points, done in the window's
+  // keyframes, whose poses are known): a point tries inverse depths from rho0 / depth_search_range
+  // to rho0 * depth_search_range (rho0: from the keyframe's depth), one step per pixel of travel
+  // along its epipolar line in the target with the longest line, and the sum over its blocks of
+  // the robustified feature-metric cost picks the best; the search finds the depth when that best
+  // is unique (the lowest cost at least depth_search_uniqueness times below every other local
+  // minimum more than 2 steps away) and the line is at least 2 px long. The search trusts the
+  // keyframes' current poses (a new keyframe's from tracking). depth_search_range: 1 = off, else
+  // in (1, 10]; depth_search_uniqueness >= 1.
+  //   searched_points_only false: a new keyframe's points enter the window at once, searched
+  //     against the keyframes already in it before the solve; those whose depth the search finds
+  //     start there, the others at rho0.
+  //   searched_points_only true (needs the search): a keyframe's selected points are candidates,
+  //     not in the problem. At every AddKeyframe (the host's own and each later one while it
+  //     stays) each candidate is searched against every other window keyframe, older and newer,
+  //     and enters at the depth found; an ambiguous search narrows its interval to the span of
+  //     the competing minima for the next keyframe; candidates leave with their host. No point
+  //     enters at a depth parallax has not confirmed (docs/tracking_against_the_window.md,
+  //     "Points that enter with their depth found": it removes KITTI 03's collapse at 616 x 184
+  //     and loses on KITTI 00 and 06).
   double depth_search_range = 2.0;
   double depth_search_uniqueness = 2.0;
+  bool searched_points_only = false;
   // backend.marginalization: marginalise into a prior (true) or only drop (false).
   bool marginalization = true;
   // backend.first_estimate_jacobians: the prior's Jacobian stays the one at its linearisation
@@ -285,11 +288,12 @@ struct WindowResult {
   double last_step_px = 0.0;
   // Number of blocks the outlier gate dropped.
   int num_gated_blocks = 0;
-  // Depth search (WindowOptions::depth_search_range): candidates searched (those with at least
-  // 2 px of epipolar line), those that found a unique depth and entered the window, and those
-  // still waiting after this step.
+  // Depth search (WindowOptions::depth_search_range): points or candidates searched (those with
+  // at least 2 px of epipolar line), those whose search found a unique depth (moved there, or
+  // entered the window: WindowOptions::searched_points_only), and the candidates still waiting
+  // after this step.
   int num_depth_searched = 0;
-  int num_points_activated = 0;
+  int num_depth_found = 0;
   int num_candidates = 0;
   // Fraction of the new keyframe's pixels with a valid depth that WindowOptions::
   // max_depth_edge_slope left out (0 when off): 0.38-0.75 with the default model's depth at
@@ -357,7 +361,9 @@ class WindowOptimizer {
   double SelectPoints(KeyframeState* keyframe);
   void ConnectPoint(PointState* point, KeyframeState* target);
   void ConnectNewKeyframe(KeyframeState* keyframe);
-  // WindowOptions::depth_search_range: searches every candidate's depth and moves those found
+  // WindowOptions::depth_search_range: moves the new keyframe's points to the depths found.
+  void SearchNewPointDepths(const KeyframeState* keyframe, WindowResult* result);
+  // WindowOptions::searched_points_only: searches every candidate's depth and moves those found
   // into points_; fills the result's depth-search counts.
   void ActivateCandidates(WindowResult* result);
   // One candidate's search over its blocks; true with point->inverse_depth at the unique best.
@@ -383,7 +389,7 @@ class WindowOptimizer {
   std::unique_ptr<SE3Manifold> manifold_;
   std::vector<std::unique_ptr<KeyframeState>> keyframes_;  // oldest first
   std::vector<std::unique_ptr<PointState>> points_;
-  // WindowOptions::depth_search_range > 1: selected points whose depth the search has not found
+  // WindowOptions::searched_points_only: selected points whose depth the search has not found
   // yet (no blocks between searches).
   std::vector<std::unique_ptr<PointState>> candidates_;
   std::unique_ptr<LinearPriorCost> prior_;

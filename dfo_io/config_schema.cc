@@ -407,16 +407,19 @@ ConfigSchema BuildSchema() {
               "different parallax. 0 = off")
       .Min(0);
   s.AddDouble("window.depth_search_range", 2.0,
-              "Points enter the window only once found by a search along their epipolar lines "
-              "in the other window keyframes, over inverse depths within this factor of the "
-              "source's (narrowed by each ambiguous search, retried at every keyframe while "
-              "their host stays); 1 = off: every selected point enters at the source's depth")
+              "Depth search of a new keyframe's points along their epipolar lines in the window's "
+              "keyframes, over inverse depths within this factor of the start (a wrong source "
+              "depth corrected by parallax before the solve); 1 = off")
       .Min(1)
       .Max(10);
   s.AddDouble("window.depth_search_uniqueness", 2.0,
-              "A searched point enters only when its best cost is this many times below every "
+              "The search finds a depth only when its best cost is this many times below every "
               "other local minimum (more than 2 px away)")
       .Min(1);
+  s.AddBool("window.searched_points_only", false,
+            "Points enter the window only once the depth search finds their depth, searched "
+            "against every other window keyframe at each keyframe while their host stays (DSO's "
+            "immature points); false: they enter at once, at the depth found or the start");
   s.AddString("window.initial_depth_scale", "source",
               "Where a new keyframe's points start: the source's depth (source; the depth search "
               "and the solve bring them to the window's scale), or that depth times the median "

@@ -58,6 +58,7 @@ WindowOptions WindowOptionsFromConfig(const io::Config& config) {
   o.max_depth_edge_slope = config.GetDouble("window.max_depth_edge_slope");
   o.depth_search_range = config.GetDouble("window.depth_search_range");
   o.depth_search_uniqueness = config.GetDouble("window.depth_search_uniqueness");
+  o.searched_points_only = config.GetBool("window.searched_points_only");
   o.marginalization = config.GetBool("backend.marginalization");
   o.first_estimate_jacobians = config.GetBool("backend.first_estimate_jacobians");
   o.prior_weight = config.GetDouble("backend.prior_weight");

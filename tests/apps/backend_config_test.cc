@@ -84,6 +84,7 @@ TEST(BackendConfig, SchemaDefaultsEqualWindowOptionsDefaults) {
   EXPECT_EQ(w.max_depth_edge_slope, d.max_depth_edge_slope);
   EXPECT_EQ(w.depth_search_range, d.depth_search_range);
   EXPECT_EQ(w.depth_search_uniqueness, d.depth_search_uniqueness);
+  EXPECT_EQ(w.searched_points_only, d.searched_points_only);
   EXPECT_EQ(w.marginalization, d.marginalization);
   EXPECT_EQ(w.first_estimate_jacobians, d.first_estimate_jacobians);
   EXPECT_EQ(w.prior_weight, d.prior_weight);

@@ -351,9 +351,6 @@ TEST(Odometry, AFrameLostAgainstTheKeyframeMakesThePreviousFrameAKeyframe) {
 TEST(Odometry, ARetrackKeyframeGetsTheKeyframeStereo) {
   OdometryOptions options = KeepTheFirstKeyframe();
   options.stereo.views = 3;
-  // The first keyframe's points in the window when the second one comes (its window scale):
-  // without the depth search, which holds them back until a second keyframe gives parallax.
-  options.window.depth_search_range = 1.0;
   Odometry odometry(External(), options);
   int promoted = -1;
   for (int i = 0; i < 60 && promoted < 0; i += 2) {

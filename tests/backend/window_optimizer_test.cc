@@ -868,7 +868,7 @@ TEST(WindowOptimizerTest, DepthSearchCorrectsAWrongSourceDepthByParallax) {
     err[search] = error(window, 9);
     if (search) {
       EXPECT_GT(r.num_depth_searched, 50);
-      moved = r.num_points_activated;
+      moved = r.num_depth_found;
     } else {
       EXPECT_EQ(r.num_depth_searched, 0);
     }
@@ -881,7 +881,7 @@ TEST(WindowOptimizerTest, DepthSearchCorrectsAWrongSourceDepthByParallax) {
   EXPECT_LT(err[1], 0.1);
 }
 
-// With the depth search on, selected points are candidates: none enters the window with the
+// With window.searched_points_only, selected points are candidates: none enters the window with the
 // source's depth (here 1.6x too far in every keyframe); each enters once parallax against
 // another keyframe has found its depth, and the candidates leave with their keyframe.
 TEST(WindowOptimizerTest, SearchedPointsEnterOnlyWithTheDepthParallaxFound) {
@@ -889,6 +889,7 @@ TEST(WindowOptimizerTest, SearchedPointsEnterOnlyWithTheDepthParallaxFound) {
   options.max_iterations = 1;
   options.depth_search_range = 2.0;
   options.depth_search_uniqueness = 1.2;
+  options.searched_points_only = true;
   WindowOptimizer window(options);
   const auto too_far = [](int frame) {
     KeyframeData kf = test::MakeSyntheticKeyframe(Sequence(), frame);
@@ -902,8 +903,8 @@ TEST(WindowOptimizerTest, SearchedPointsEnterOnlyWithTheDepthParallaxFound) {
   EXPECT_GT(first.num_candidates, 100);
   const WindowResult second = window.AddKeyframe(too_far(3));
   ASSERT_TRUE(second.optimized) << second.message;
-  EXPECT_GT(second.num_points_activated, 100);
-  EXPECT_LE(window.num_points(), second.num_points_activated);  // the gate may leave some blockless
+  EXPECT_GT(second.num_depth_found, 100);
+  EXPECT_LE(window.num_points(), second.num_depth_found);  // the gate may leave some blockless
   std::vector<double> errors;
   for (const WindowOptimizer::PointInfo& p : window.Points()) {
     const SyntheticFrame truth = Sequence().RenderFrame(p.host_frame);
@@ -916,7 +917,7 @@ TEST(WindowOptimizerTest, SearchedPointsEnterOnlyWithTheDepthParallaxFound) {
   std::printf(
       "[ figures  ] source depth 1.6x too far (|log| 0.470): %d of %d candidates entered after "
       "the second keyframe, median |log depth error| %.3f\n",
-      second.num_points_activated, second.num_points_activated + second.num_candidates,
+      second.num_depth_found, second.num_depth_found + second.num_candidates,
       errors[errors.size() / 2]);
   EXPECT_LT(errors[errors.size() / 2], 0.1);
   // Candidates are bounded by the keyframes in the window.
@@ -954,6 +955,12 @@ TEST(WindowOptionsTest, CheckNamesTheKey) {
   o = WindowOptions();
   o.max_patch_stretch = 1.0;
   EXPECT_EQ(message(o), "window.max_patch_stretch = 1 violates > 1");
+  o = WindowOptions();
+  o.searched_points_only = true;
+  o.depth_search_range = 1.0;
+  EXPECT_EQ(message(o),
+            "window.searched_points_only = true violates false when window.depth_search_range is "
+            "1 (no search)");
   o = WindowOptions();
   o.depth_prior_scale_fraction = 1.5;
   EXPECT_EQ(message(o), "window.depth_prior_scale_fraction = 1.5 violates in [0, 1]");
