@@ -125,16 +125,6 @@ OdometryFrame Odometry::Process(const Frame& frame) {
     out.windowed_world_from_cam = poses_.WindowedPose(t.index);
     return out;
   };
-  if (window_ && options_.tracking.depth == "window") {
-    if (t.status == TrackingStatus::kReference) {
-      start_frames_.clear();
-      window_depth_since_start_ = false;
-      start_keyframe_ = t.index;
-    } else if (t.status != TrackingStatus::kLost && !window_depth_since_start_ &&
-               t.reference_index == start_keyframe_ && t.retracked_from < 0) {
-      start_frames_.push_back({t.index, frontend_->last_features()});
-    }
-  }
   const KeyframeDecision decision = manager_.Decide(t);
   if (t.status == TrackingStatus::kReference) {
     // First frame or restart after a loss: a keyframe by itself, related to the previous
@@ -387,13 +377,7 @@ int Odometry::ApplyPendingSolve(bool wait) {
     points = window_->PointsInKeyframe(t);
   }
   // What the next frames are tracked against (only while the keyframe is still the reference).
-  if (tracking.depth == "window" && last_keyframe_ == t) {
-    ChooseTrackingDepth(*pending, points, kf);
-    if (kf->tracking_depth == "window" && !window_depth_since_start_) {
-      window_depth_since_start_ = true;
-      RetrackStartFrames(t);
-    }
-  }
+  if (tracking.depth == "window" && last_keyframe_ == t) ChooseTrackingDepth(*pending, points, kf);
 
   // The factor that brings the steps of the frames tracked against the keyframe's source-based
   // depth to the window's scale, from the depth they are tracked against as decided above: the
@@ -414,20 +398,6 @@ int Odometry::ApplyPendingSolve(bool wait) {
     }
   }
   return t;
-}
-
-void Odometry::RetrackStartFrames(int keyframe_index) {
-  const SE3d kf_from_world = poses_.FrontendPose(keyframe_index).Inverse();
-  for (const StartFrame& f : start_frames_) {
-    if (f.index >= keyframe_index || !poses_.Contains(f.index) || poses_.IsKeyframe(f.index)) {
-      continue;
-    }
-    const SE3d kf_from_cam = kf_from_world * poses_.FrontendPose(f.index);
-    const TrackResult r = frontend_->TrackAgainstReference(f.features, kf_from_cam.Inverse());
-    if (r.status == TrackingStatus::kLost || !IsFinitePose(r.cur_from_ref)) continue;
-    poses_.Rebook(f.index, keyframe_index, r.cur_from_ref.Inverse());
-  }
-  start_frames_.clear();
 }
 
 void Odometry::ChooseTrackingDepth(const PendingSolve& pending,

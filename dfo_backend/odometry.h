@@ -257,21 +257,6 @@ class Odometry {
     ImageF grey;
   };
   std::deque<RecentFrame> recent_;
-  // The start of a run (and of each restart): until the window's first solve gives a keyframe the
-  // window's depth, frames are tracked against the first keyframe's source depth, over a
-  // baseline of a frame or two, which places them badly (KITTI 06 from frame 0: frame 1 0.55 m
-  // off after the Sim3 alignment, its step 0.59 of the truth's, where frame 2, twice as far
-  // from frame 0, is right). Their tracker features are kept (start_frames_) and, once that
-  // solve is applied and the newest keyframe is tracked against the window's depth, they are
-  // tracked again against it and booked against it (RetrackStartFrames).
-  struct StartFrame {
-    int index = 0;
-    FeaturePyramid features;
-  };
-  std::vector<StartFrame> start_frames_;  // only frames tracked against start_keyframe_
-  int start_keyframe_ = -1;
-  bool window_depth_since_start_ = false;
-  void RetrackStartFrames(int keyframe_index);
   // Every keyframe's window_scale > 0 so far (TrackingDepthOptions::source_scale "run_median").
   std::vector<double> window_scales_;
   // Keyframes that left the window while their poses are still reported: each follows the

@@ -81,17 +81,6 @@ void TrajectoryStore::SetWindowedPose(int frame_index, const SE3d& world_from_kf
   e.windowed_world_from_kf = world_from_kf;
 }
 
-void TrajectoryStore::Rebook(int frame_index, int keyframe_index, const SE3d& kf_from_frame) {
-  DFO_CHECK(IsKeyframe(keyframe_index)) << "frame " << frame_index << " booked against frame "
-                                        << keyframe_index << ", which is not a keyframe";
-  Entry& e = GetMutable(frame_index);
-  DFO_CHECK(!e.is_keyframe) << "frame " << frame_index << " is a keyframe";
-  e.keyframe_index = keyframe_index;
-  e.kf_from_frame = kf_from_frame;
-  e.scale_step = false;
-  e.step_scale = 1.0;
-}
-
 void TrajectoryStore::SetWindowedStepScale(int frame_index, double scale, bool rescale_added) {
   Entry& e = GetMutable(frame_index);
   DFO_CHECK(e.is_keyframe) << "frame " << frame_index << " is not a keyframe";
@@ -114,11 +103,6 @@ SE3d TrajectoryStore::WindowedStep(int frame_index) const {
   const Entry& e = Get(frame_index);
   if (e.is_keyframe) return SE3d();
   return e.keyframe_index < 0 ? e.kf_from_frame : ScaledStep(e);
-}
-
-int TrajectoryStore::KeyframeOf(int frame_index) const {
-  const Entry& e = Get(frame_index);
-  return e.is_keyframe ? -1 : e.keyframe_index;
 }
 
 bool TrajectoryStore::Contains(int frame_index) const { return position_.count(frame_index) > 0; }

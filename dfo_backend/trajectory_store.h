@@ -48,10 +48,6 @@ class TrajectoryStore {
   // Sets the windowed pose of keyframe `frame_index` (after bundle adjustment): every frame
   // tracked against it follows. Throws InternalError when it is not a keyframe.
   void SetWindowedPose(int frame_index, const SE3d& world_from_kf);
-  // Books frame `frame_index` (not a keyframe) against keyframe `keyframe_index` with
-  // `kf_from_frame` instead (tracked again against that keyframe; its step needs no scale).
-  // Throws InternalError when either is not what it must be.
-  void Rebook(int frame_index, int keyframe_index, const SE3d& kf_from_frame);
 
   // Sets keyframe `frame_index`'s step scale (1 until set): the factor on the translation of
   // kf_from_frame, in the windowed trajectory, of the frames added after this call with
@@ -65,9 +61,6 @@ class TrajectoryStore {
   // keyframe or the factor is not finite and positive.
   void SetWindowedStepScale(int frame_index, double scale, bool rescale_added = false);
 
-  // The keyframe frame `frame_index` is booked against; -1 for a keyframe or an absolute frame.
-  // Throws InternalError when the frame is unknown.
-  int KeyframeOf(int frame_index) const;
   bool Contains(int frame_index) const;
   bool IsKeyframe(int frame_index) const;
   // Pose of a stored frame in either trajectory (InternalError when not stored).

@@ -393,14 +393,6 @@ bool Frontend::TakeRetrackKeyframe(KeyframeData* keyframe) {
   return true;
 }
 
-const FeaturePyramid& Frontend::last_features() const { return state_->last_features; }
-
-TrackResult Frontend::TrackAgainstReference(const FeaturePyramid& features,
-                                            const SE3d& cur_from_ref) {
-  if (!state_->reference.has_reference) return TrackResult();
-  return tracker_.Track(features, {cur_from_ref});
-}
-
 bool Frontend::SetReferenceDepth(int frame_index, const DepthPyramid& depth) {
   State& s = *state_;
   if (!s.reference.has_reference || s.reference.reference_index != frame_index) return false;

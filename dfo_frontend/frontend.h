@@ -133,13 +133,6 @@ class Frontend {
   // The depth pyramid the current reference was made with by the depth source (before any
   // SetReferenceDepth); empty without a reference.
   const DepthPyramid& reference_source_depth() const;
-  // The tracker's feature pyramid of the frame the last Process call took; empty before one.
-  const FeaturePyramid& last_features() const;
-  // Tracks `features` (a frame's tracker pyramid, as last_features gives) against the current
-  // reference and its depth, from `cur_from_ref` (the reference's pose in that frame's camera),
-  // changing nothing in the frontend's state (motion model, reference). Status kLost without a
-  // reference.
-  TrackResult TrackAgainstReference(const FeaturePyramid& features, const SE3d& cur_from_ref);
 
   // Timings of the last Process call.
   const FrontendTimings& last_timings() const;

@@ -365,43 +365,6 @@ TEST(Odometry, ARetrackKeyframeGetsTheKeyframeStereo) {
   EXPECT_GT(kf.stereo.num_replaced, 0) << "keyframe " << promoted;
 }
 
-// The frames tracked against the first keyframe's source depth, before any window depth, are
-// tracked again against the first keyframe tracked against the window's depth and booked
-// against it; with tracking against the source's depth they stay where they were.
-TEST(Odometry, FramesOfTheStartAreTrackedAgainAgainstTheWindowsFirstDepth) {
-  for (const char* depth : {"window", "source"}) {
-    OdometryOptions options = Deterministic(OdometryMode::kBoth);
-    options.tracking.depth = depth;
-    options.keyframe.min_interval = 3;  // frames between the first keyframes
-    Odometry odometry(External(), options);
-    for (int i = 0; i < 24; ++i) odometry.Process(Frames()[i]);
-    int first_window = -1;
-    for (const KeyframeRecord& kf : odometry.keyframes()) {
-      if (kf.tracking_depth == "window") {
-        first_window = kf.frame_index;
-        break;
-      }
-    }
-    int start_frames = 0;
-    const int second_keyframe = odometry.keyframes().at(1).frame_index;
-    for (int f = 1; f < second_keyframe; ++f) {
-      ++start_frames;
-      if (std::string(depth) == "source") {
-        EXPECT_EQ(odometry.poses().KeyframeOf(f), 0) << "frame " << f;
-        continue;
-      }
-      ASSERT_GT(first_window, 0);
-      EXPECT_EQ(odometry.poses().KeyframeOf(f), first_window) << "frame " << f;
-      // True depth: the step from that keyframe is the true one.
-      const SE3d truth = Truth()[first_window].Inverse() * Truth()[f];
-      const SE3d estimate =
-          odometry.poses().WindowedPose(first_window).Inverse() * odometry.poses().WindowedPose(f);
-      EXPECT_LT((truth.translation() - estimate.translation()).norm(), 0.02) << "frame " << f;
-    }
-    EXPECT_GT(start_frames, 0) << "the second keyframe came at frame 1";
-  }
-}
-
 TEST(Odometry, BadInputThrowsAndBooksNothing) {
   Odometry odometry(External(), Deterministic(OdometryMode::kBoth));
   odometry.Process(Frames()[0]);

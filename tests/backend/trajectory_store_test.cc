@@ -133,25 +133,6 @@ TEST(TrajectoryStoreTest, StepScaleScalesOnlyMarkedStepsAndOnlyInTheWindowedTraj
   EXPECT_THROW(s.SetWindowedStepScale(0, std::nan("")), InternalError);
 }
 
-// A frame tracked again against a later keyframe is booked against it, with an unscaled step.
-TEST(TrajectoryStoreTest, RebookedFrameFollowsItsNewKeyframe) {
-  TrajectoryStore s;
-  s.AddKeyframe(0, 0, Pose(0.0, 0.0));
-  s.SetWindowedStepScale(0, 1.5);
-  s.AddFrame(1, 10, 0, Pose(1.0, 0.0), /*scale_step=*/true);
-  s.AddFrame(2, 20, 0, Pose(2.0, 0.0));
-  s.PromoteToKeyframe(2);
-  EXPECT_EQ(s.KeyframeOf(1), 0);
-  EXPECT_EQ(s.KeyframeOf(2), -1);
-  s.Rebook(1, 2, Pose(-0.8, 0.0));
-  EXPECT_EQ(s.KeyframeOf(1), 2);
-  s.SetWindowedPose(2, Pose(2.5, 0.0));
-  ExpectPoseNear(s.WindowedPose(1), Pose(1.7, 0.0));
-  ExpectPoseNear(s.FrontendPose(1), Pose(1.2, 0.0));
-  EXPECT_THROW(s.Rebook(2, 0, SE3d()), InternalError);  // a keyframe
-  EXPECT_THROW(s.Rebook(1, 3, SE3d()), InternalError);  // 3 is not a keyframe
-}
-
 TEST(TrajectoryStoreTest, ContractViolationsThrowInternalError) {
   TrajectoryStore s = MakeStore();
   EXPECT_THROW(s.AddFrame(5, 50, 3, SE3d()), InternalError);  // index not increasing
