@@ -350,8 +350,9 @@ struct WindowOptimizer::PointState {
   double inverse_depth = 0.0;
   double prior_inverse_depth = 0.0;  // from the keyframe's depth
   double start_inverse_depth = 0.0;  // where it entered the window
-  // A candidate's (WindowOptions::depth_search_range) inverse-depth interval still possible:
-  // rho0 / range .. rho0 * range at first, narrowed by each search that found it ambiguous.
+  // The depth search's (WindowOptions::depth_search_range) inverse-depth interval: rho0 / range
+  // .. rho0 * range at first; a candidate's (WindowOptions::searched_points_only) is narrowed by
+  // each search that found it ambiguous.
   double search_lo = 0.0, search_hi = 0.0;
   std::shared_ptr<const std::vector<double>> patch;
   // FeatureMetricCost's depth shape (WindowOptions::patch_depth_shape); null: fronto-parallel.
