@@ -608,13 +608,17 @@ void WindowOptimizer::ConnectPoint(PointState* p, KeyframeState* target) {
   }
 }
 
+void WindowOptimizer::ConnectToOtherKeyframes(PointState* p) {
+  for (auto& target : keyframes_) {
+    if (target->id != p->host_id) ConnectPoint(p, target.get());
+  }
+}
+
 // Blocks for every (point, target) pair that involves the new keyframe and is visible.
 void WindowOptimizer::ConnectNewKeyframe(KeyframeState* new_kf) {
   for (auto& p : points_) {
     if (p->host_id == new_kf->id) {
-      for (auto& target : keyframes_) {
-        if (target->id != new_kf->id) ConnectPoint(p.get(), target.get());
-      }
+      ConnectToOtherKeyframes(p.get());
     } else {
       ConnectPoint(p.get(), new_kf);
     }
@@ -629,9 +633,7 @@ void WindowOptimizer::ActivateCandidates(WindowResult* result) {
     // along the epipolar lines of those targets.
     c->residuals.clear();
     c->inverse_depth = 0.5 * (c->search_lo + c->search_hi);
-    for (auto& target : keyframes_) {
-      if (target->id != c->host_id) ConnectPoint(c.get(), target.get());
-    }
+    ConnectToOtherKeyframes(c.get());
     if (!c->residuals.empty() && SearchPointDepth(c.get(), result)) {
       c->start_inverse_depth = c->inverse_depth;
       points_.push_back(std::move(c));

@@ -360,6 +360,8 @@ class WindowOptimizer {
   // Returns the fraction of pixels with a valid depth left out by the depth-edge rule.
   double SelectPoints(KeyframeState* keyframe);
   void ConnectPoint(PointState* point, KeyframeState* target);
+  // ConnectPoint into every window keyframe but the point's host.
+  void ConnectToOtherKeyframes(PointState* point);
   void ConnectNewKeyframe(KeyframeState* keyframe);
   // WindowOptions::depth_search_range: moves the new keyframe's points to the depths found.
   void SearchNewPointDepths(const KeyframeState* keyframe, WindowResult* result);

@@ -831,23 +831,36 @@ TEST(WindowOptimizerTest, BadKeyframesAreRejectedWithTheFrameIndex) {
   EXPECT_EQ(window.num_keyframes(), 1);
 }
 
+// The synthetic keyframe of `frame` with its depth maps multiplied by `factor` (a wrong source
+// depth).
+KeyframeData KeyframeWithDepthTimes(int frame, float factor) {
+  KeyframeData kf = test::MakeSyntheticKeyframe(Sequence(), frame);
+  for (ImageF& level : kf.depth.levels) {
+    for (float& d : level.vector()) d *= factor;
+  }
+  return kf;
+}
+
+// Median |log(depth / true depth)| of the window's points hosted in `frame`; infinity when it
+// hosts none with a true depth.
+double MedianLogDepthError(const WindowOptimizer& window, int frame) {
+  const SyntheticFrame truth = Sequence().RenderFrame(frame);
+  std::vector<double> errors;
+  for (const WindowOptimizer::PointInfo& p : window.Points()) {
+    if (p.host_frame != frame || !(truth.depth(p.x, p.y) > 0.0f)) continue;
+    errors.push_back(std::abs(std::log(1.0 / (p.inverse_depth * truth.depth(p.x, p.y)))));
+  }
+  if (errors.empty()) return std::numeric_limits<double>::infinity();
+  std::nth_element(errors.begin(), errors.begin() + errors.size() / 2, errors.end());
+  return errors[errors.size() / 2];
+}
+
 // The depth search (window.depth_search_range) corrects a new keyframe whose source depth is 1.6x
 // too far, by parallax against the keyframes already in the window, before the solve: the new
 // points end near their true depth, where without the search the one solve step leaves them far
 // off (outside the feature-metric basin). With uniqueness 1.2; the default 2 (chosen on real
 // video, docs/tracking_against_the_window.md) moves only the 60 clearest of the 148 points here.
 TEST(WindowOptimizerTest, DepthSearchCorrectsAWrongSourceDepthByParallax) {
-  // Median |log(depth / true depth)| of the points hosted in `frame`.
-  const auto error = [](const WindowOptimizer& window, int frame) {
-    const SyntheticFrame truth = Sequence().RenderFrame(frame);
-    std::vector<double> errors;
-    for (const WindowOptimizer::PointInfo& p : window.Points()) {
-      if (p.host_frame != frame || !(truth.depth(p.x, p.y) > 0.0f)) continue;
-      errors.push_back(std::abs(std::log(1.0 / (p.inverse_depth * truth.depth(p.x, p.y)))));
-    }
-    std::nth_element(errors.begin(), errors.begin() + errors.size() / 2, errors.end());
-    return errors[errors.size() / 2];
-  };
   double err[2] = {0.0, 0.0};
   int moved = 0;
   for (int search = 0; search < 2; ++search) {
@@ -859,13 +872,9 @@ TEST(WindowOptimizerTest, DepthSearchCorrectsAWrongSourceDepthByParallax) {
     options.depth_search_uniqueness = 1.2;
     WindowOptimizer window(options);
     for (int frame : {0, 3, 6}) window.AddKeyframe(test::MakeSyntheticKeyframe(Sequence(), frame));
-    KeyframeData wrong = test::MakeSyntheticKeyframe(Sequence(), 9);
-    for (ImageF& level : wrong.depth.levels) {
-      for (float& d : level.vector()) d *= 1.6f;
-    }
-    const WindowResult r = window.AddKeyframe(std::move(wrong));
+    const WindowResult r = window.AddKeyframe(KeyframeWithDepthTimes(9, 1.6f));
     ASSERT_TRUE(r.optimized) << r.message;
-    err[search] = error(window, 9);
+    err[search] = MedianLogDepthError(window, 9);
     if (search) {
       EXPECT_GT(r.num_depth_searched, 50);
       moved = r.num_depth_found;
@@ -891,13 +900,7 @@ TEST(WindowOptimizerTest, SearchedPointsEnterOnlyWithTheDepthParallaxFound) {
   options.depth_search_uniqueness = 1.2;
   options.searched_points_only = true;
   WindowOptimizer window(options);
-  const auto too_far = [](int frame) {
-    KeyframeData kf = test::MakeSyntheticKeyframe(Sequence(), frame);
-    for (ImageF& level : kf.depth.levels) {
-      for (float& d : level.vector()) d *= 1.6f;
-    }
-    return kf;
-  };
+  const auto too_far = [](int frame) { return KeyframeWithDepthTimes(frame, 1.6f); };
   const WindowResult first = window.AddKeyframe(too_far(0));
   EXPECT_EQ(window.num_points(), 0);
   EXPECT_GT(first.num_candidates, 100);
@@ -905,21 +908,12 @@ TEST(WindowOptimizerTest, SearchedPointsEnterOnlyWithTheDepthParallaxFound) {
   ASSERT_TRUE(second.optimized) << second.message;
   EXPECT_GT(second.num_depth_found, 100);
   EXPECT_LE(window.num_points(), second.num_depth_found);  // the gate may leave some blockless
-  std::vector<double> errors;
-  for (const WindowOptimizer::PointInfo& p : window.Points()) {
-    const SyntheticFrame truth = Sequence().RenderFrame(p.host_frame);
-    if (truth.depth(p.x, p.y) > 0.0f) {
-      errors.push_back(std::abs(std::log(1.0 / (p.inverse_depth * truth.depth(p.x, p.y)))));
-    }
-  }
-  ASSERT_FALSE(errors.empty());
-  std::nth_element(errors.begin(), errors.begin() + errors.size() / 2, errors.end());
+  const double error = std::max(MedianLogDepthError(window, 0), MedianLogDepthError(window, 3));
   std::printf(
       "[ figures  ] source depth 1.6x too far (|log| 0.470): %d of %d candidates entered after "
-      "the second keyframe, median |log depth error| %.3f\n",
-      second.num_depth_found, second.num_depth_found + second.num_candidates,
-      errors[errors.size() / 2]);
-  EXPECT_LT(errors[errors.size() / 2], 0.1);
+      "the second keyframe, median |log depth error| %.3f (the worse keyframe)\n",
+      second.num_depth_found, second.num_depth_found + second.num_candidates, error);
+  EXPECT_LT(error, 0.1);
   // Candidates are bounded by the keyframes in the window.
   for (int k = 2; k < 12; ++k) {
     const WindowResult r = window.AddKeyframe(too_far(3 * k));
